@@ -1,0 +1,28 @@
+// cvtmesh: tetrahedral Delaunay meshes from 3D medical images (see README.md).
+#include <cstdio>
+#include <exception>
+#include <iostream>
+
+#include "commands.h"
+#include "errors.h"
+
+int main(int argc, char** argv) {
+  CLI::App app{"cvtmesh: CVT-based Delaunay tetrahedral meshes from 3D medical images"};
+  app.require_subcommand(1);
+  cvt::cli::add_info_command(app);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  } catch (const cvt::InputError& e) {
+    std::cerr << "cvtmesh: " << e.what() << "\n";
+    return 1;
+  } catch (const std::bad_alloc&) {
+    std::cerr << "cvtmesh: out of memory\n";
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "cvtmesh: " << e.what() << "\n";
+    return 1;
+  }
+  return 0;
+}

@@ -1,0 +1,22 @@
+// Exact Euclidean distance transform with anisotropic spacing and the feature transform
+// (the nearest feature voxel of every voxel), in linear time (Maurer et al. 2003), parallel
+// over rows with TBB. The feature transform is the discrete Voronoi diagram of the features.
+#pragma once
+
+#include <cstdint>
+
+#include "volume.h"
+
+namespace cvt {
+
+struct FeatureTransform {
+  Volume<float> squared_distance_mm2;  // |x − nearest feature|² in mm²; +inf when no feature
+  Volume<std::int32_t> nearest;        // linear index of the nearest feature voxel; −1 if none
+};
+
+// Features are the voxels where `features` is non-zero. Distances use features.grid.spacing.
+// Ties between equidistant features are broken deterministically (independent of threads).
+// compute_nearest=false skips the feature volume (its data is then left empty).
+FeatureTransform compute_feature_transform(const Mask& features, bool compute_nearest = true);
+
+}  // namespace cvt

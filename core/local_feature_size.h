@@ -1,0 +1,23 @@
+// Local feature size: the distance (mm) from every voxel to the nearest medial-axis voxel,
+// inner or outer, clamped to [min, max] because lfs collapses in thin parts and is unbounded
+// where the medial axis is far away.
+#pragma once
+
+#include "volume.h"
+
+namespace cvt {
+
+struct LfsOptions {
+  double min_mm = 0;  // lower clamp (mm); 0 = auto: the largest voxel spacing
+  double max_mm = 0;  // upper clamp (mm); 0 = auto: half the diagonal of the crop (object box + margin)
+};
+
+struct LfsBounds {
+  double min_mm, max_mm;
+};
+LfsBounds effective_lfs_bounds(const LfsOptions& options, const Mask& object);
+
+// medial_axis: non-zero on medial-axis voxels (compute_medial_axis).
+Volume<float> compute_local_feature_size(const Mask& medial_axis, const LfsBounds& bounds);
+
+}  // namespace cvt

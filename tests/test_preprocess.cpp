@@ -1,0 +1,228 @@
+// Stage 1 on analytic phantoms: object selection, clean-up, medial axis and local feature size.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "cleanup.h"
+#include "errors.h"
+#include "phantoms.h"
+#include "preprocess.h"
+
+using namespace cvt;
+
+namespace {
+
+const double kPi = 3.14159265358979323846;
+
+double max_spacing(const Grid& g) { return std::max({g.spacing.x, g.spacing.y, g.spacing.z}); }
+
+struct LfsErrors {
+  double max_abs = 0;
+  double mean_abs = 0;
+  std::size_t count = 0;
+};
+
+// Compares lfs at the boundary voxels accepted by `use` against `expected(world position)`.
+template <class Expected, class Use>
+LfsErrors lfs_errors(const PreprocessResult& r, Expected expected, Use use) {
+  LfsErrors e;
+  for (std::int32_t v : r.boundary) {
+    const Vec3 w = r.object.grid.voxel_to_world(std::size_t(v));
+    if (!use(w)) continue;
+    const double err = std::abs(double(r.lfs_mm.data[v]) - expected(w));
+    e.max_abs = std::max(e.max_abs, err);
+    e.mean_abs += err;
+    ++e.count;
+  }
+  if (e.count) e.mean_abs /= double(e.count);
+  return e;
+}
+
+}  // namespace
+
+TEST(LocalFeatureSize, SphereSurfaceIsRadiusWithinOneVoxel) {
+  const double R = 12.0;
+  const Phantom p = sphere_phantom({3, -4, 5}, R);
+  const Grid g = grid_around(p, {0.8, 0.9, 1.2}, rotation_matrix({1, 2, 3}, 0.5));
+  PreprocessOptions opt;
+  opt.lfs.max_mm = 100;  // no upper clamp in the way
+  const PreprocessResult r = preprocess(rasterize(p, g), opt);
+  ASSERT_GT(r.boundary.size(), 1000u);
+  const auto e = lfs_errors(r, [&](const Vec3&) { return R; }, [](const Vec3&) { return true; });
+  EXPECT_LE(e.max_abs, max_spacing(g)) << "mean " << e.mean_abs;
+  // The inner medial axis of a ball is its centre: a few voxels only, no spurious branches.
+  const auto inner = std::count(r.medial_axis.data.begin(), r.medial_axis.data.end(), 1);
+  const auto outer = std::count(r.medial_axis.data.begin(), r.medial_axis.data.end(), 2);
+  EXPECT_GE(inner, 1);
+  EXPECT_LE(inner, 27);
+  EXPECT_EQ(outer, 0);
+}
+
+TEST(LocalFeatureSize, SlabFacesAreHalfThickness) {
+  const double t = 6.0, half_width = 18.0;
+  const Vec3 c{-7, 2, 40};
+  const Phantom p = slab_phantom(c, t, half_width);
+  const Grid g = grid_around(p, {0.7, 0.7, 0.5}, rotation_matrix({0, 0, 1}, 0.0));
+  PreprocessOptions opt;
+  const PreprocessResult r = preprocess(rasterize(p, g), opt);
+  // Voxels on the two large faces, away from the edges (whose medial sheets are nearer).
+  auto on_face = [&](const Vec3& w) {
+    const Vec3 q = w - c;
+    return std::abs(q.x) < half_width - t && std::abs(q.y) < half_width - t;
+  };
+  const auto e = lfs_errors(r, [&](const Vec3&) { return t / 2; }, on_face);
+  ASSERT_GT(e.count, 500u);
+  EXPECT_LE(e.max_abs, max_spacing(g)) << "mean " << e.mean_abs;
+}
+
+TEST(LocalFeatureSize, TorusIsMinOfMinorRadiusAndAxisDistance) {
+  // The hole (radius 4 mm) is narrower than the tube (radius 6 mm), so near the inner equator
+  // the outer medial axis (the z axis) is nearer than the tube's core circle.
+  const double major = 10.0, minor = 6.0;
+  const Vec3 c{20, 10, -15};
+  const Phantom p = torus_phantom(c, major, minor);
+  const Grid g = grid_around(p, {0.6, 0.75, 0.9}, rotation_matrix({1, -1, 2}, 0.7));
+  PreprocessOptions opt;
+  const PreprocessResult r = preprocess(rasterize(p, g), opt);
+  auto expected = [&](const Vec3& w) {
+    const Vec3 q = w - c;
+    const double axis = std::hypot(q.x, q.y);
+    const double core = std::hypot(axis - major, q.z);
+    return std::min(core, axis);
+  };
+  const auto e = lfs_errors(r, expected, [](const Vec3&) { return true; });
+  ASSERT_GT(e.count, 1000u);
+  EXPECT_LE(e.max_abs, 1.5 * max_spacing(g)) << "mean " << e.mean_abs;
+  EXPECT_LE(e.mean_abs, 0.5 * max_spacing(g));
+  // Both medial axes exist: the core circle inside, the z axis outside.
+  EXPECT_GT(std::count(r.medial_axis.data.begin(), r.medial_axis.data.end(), 1), 20);
+  EXPECT_GT(std::count(r.medial_axis.data.begin(), r.medial_axis.data.end(), 2), 5);
+}
+
+TEST(LocalFeatureSize, ClampedToBounds) {
+  const Phantom p = sphere_phantom({0, 0, 0}, 10.0);
+  const Grid g = grid_around(p, {1, 1, 1}, rotation_matrix({0, 0, 1}, 0));
+  PreprocessOptions opt;
+  opt.lfs.min_mm = 2.5;
+  opt.lfs.max_mm = 4.0;
+  const PreprocessResult r = preprocess(rasterize(p, g), opt);
+  const auto [lo, hi] = std::minmax_element(r.lfs_mm.data.begin(), r.lfs_mm.data.end());
+  EXPECT_FLOAT_EQ(*lo, 2.5f);
+  EXPECT_FLOAT_EQ(*hi, 4.0f);
+}
+
+TEST(ObjectSelection, CropKeepsWorldPositionsAndPadsBorderObjects) {
+  // A sphere that pokes out of the image on one side must come back closed.
+  const Phantom p = sphere_phantom({0, 0, 0}, 8.0);
+  Grid g = grid_around(p, {1, 1.25, 1.5}, rotation_matrix({0, 1, 0}, 0.3));
+  g.dims[0] -= 5;  // cut the image so the object touches its border
+  Image img = rasterize(p, g);
+  ObjectSelection sel;
+  sel.margin_voxels = 2;
+  const Mask m = select_object(img, sel);
+  const Grid& mg = m.grid;
+  std::size_t inside = 0;
+  for (int k = 0; k < mg.dims[2]; ++k)
+    for (int j = 0; j < mg.dims[1]; ++j)
+      for (int i = 0; i < mg.dims[0]; ++i) {
+        const bool border = i == 0 || j == 0 || k == 0 || i == mg.dims[0] - 1 ||
+                            j == mg.dims[1] - 1 || k == mg.dims[2] - 1;
+        if (border) EXPECT_EQ(m.at(i, j, k), 0);
+        if (!m.at(i, j, k)) continue;
+        ++inside;
+        // The same world point is inside in the original image.
+        const Vec3 idx = g.world_to_index(mg.index_to_world({double(i), double(j), double(k)}));
+        const int si = int(std::lround(idx.x)), sj = int(std::lround(idx.y)), sk = int(std::lround(idx.z));
+        ASSERT_TRUE(g.contains(si, sj, sk));
+        EXPECT_NEAR(idx.x, si, 1e-6);
+        EXPECT_EQ(img.voxels.at(si, sj, sk), 1.0f);
+      }
+  const auto total = std::count(img.voxels.data.begin(), img.voxels.data.end(), 1.0f);
+  EXPECT_EQ(inside, std::size_t(total));
+}
+
+TEST(ObjectSelection, LabelsIsoAndErrors) {
+  Grid g;
+  g.dims = {6, 6, 6};
+  Image img;
+  img.voxels = Volume<float>(g, 0.0f);
+  img.source = "labels.nii";
+  img.voxels.at(1, 1, 1) = 3;
+  img.voxels.at(4, 4, 4) = 7;
+  ObjectSelection sel;
+  sel.labels = {7};
+  Mask m = select_object(img, sel);
+  EXPECT_EQ(std::count(m.data.begin(), m.data.end(), 1), 1);
+  sel.labels = {3, 7};
+  m = select_object(img, sel);
+  EXPECT_EQ(std::count(m.data.begin(), m.data.end(), 1), 2);
+  sel.labels = {5};
+  try {
+    select_object(img, sel);
+    FAIL() << "empty selection accepted";
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find("labels.nii"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("label 5"), std::string::npos) << e.what();
+  }
+  // Grey images need an iso value; below/above select complementary sets.
+  img.integer_valued = false;
+  img.pixel_type = "float32";
+  sel = {};
+  EXPECT_THROW(select_object(img, sel), InputError);
+  sel.iso = 5.0;
+  m = select_object(img, sel);
+  EXPECT_EQ(std::count(m.data.begin(), m.data.end(), 1), 1);
+  img.voxels.at(2, 2, 2) = std::nanf("");
+  EXPECT_THROW(select_object(img, sel), InputError);
+  EXPECT_EQ(parse_label_list("all").size(), 0u);
+  EXPECT_EQ(parse_label_list("1,20,255"), (std::vector<std::int64_t>{1, 20, 255}));
+  EXPECT_THROW(parse_label_list("1,x"), InputError);
+}
+
+TEST(Cleanup, FillsCavitiesAndDropsSpecks) {
+  const Phantom p = hollow_sphere_phantom({0, 0, 0}, 4.0, 8.0);
+  const Grid g = grid_around(p, {1, 1, 1}, rotation_matrix({0, 0, 1}, 0));
+  Image img = rasterize(p, g);
+  img.voxels.at(1 + 2, 2, 2) = 1;  // a speck far from the shell, inside the margin
+  ObjectSelection sel;
+  Mask keep = select_object(img, sel);
+  Mask cleaned = keep;
+  CleanupOptions off;
+  off.remove_small_components = false;
+  off.fill_cavities = false;
+  const CleanupReport none = clean_object(keep, off);
+  EXPECT_EQ(none.components, 2);
+  EXPECT_EQ(none.cavities_filled, 0);
+  const CleanupReport rep = clean_object(cleaned, CleanupOptions{});
+  EXPECT_EQ(rep.components, 2);
+  EXPECT_EQ(rep.components_removed, 1);
+  EXPECT_EQ(rep.voxels_removed, 1u);
+  EXPECT_EQ(rep.cavities_filled, 1);
+  std::vector<int> labels;
+  EXPECT_EQ(label_components(cleaned, 1, labels).size(), 1u);
+  EXPECT_EQ(label_components(cleaned, 0, labels).size(), 1u);  // no cavity left
+  // The filled voxels are exactly those within the inner radius.
+  const std::size_t before = std::count(keep.data.begin(), keep.data.end(), 1);
+  const std::size_t after = std::count(cleaned.data.begin(), cleaned.data.end(), 1);
+  EXPECT_EQ(after, before - 1 + rep.voxels_filled);
+  EXPECT_NEAR(double(rep.voxels_filled), 4.0 / 3.0 * kPi * 64.0, 0.15 * 4.0 / 3.0 * kPi * 64.0);
+}
+
+TEST(Preprocess, BoundaryVoxelsTouchBackground) {
+  const Phantom p = torus_phantom({0, 0, 0}, 8.0, 3.0);
+  const Grid g = grid_around(p, {0.8, 0.8, 1.0}, rotation_matrix({1, 0, 0}, 0.4));
+  const PreprocessResult r = preprocess(rasterize(p, g), PreprocessOptions{});
+  const Grid& mg = r.object.grid;
+  std::size_t expected = 0;
+  for (int k = 1; k + 1 < mg.dims[2]; ++k)
+    for (int j = 1; j + 1 < mg.dims[1]; ++j)
+      for (int i = 1; i + 1 < mg.dims[0]; ++i)
+        if (r.object.at(i, j, k) &&
+            (!r.object.at(i - 1, j, k) || !r.object.at(i + 1, j, k) || !r.object.at(i, j - 1, k) ||
+             !r.object.at(i, j + 1, k) || !r.object.at(i, j, k - 1) || !r.object.at(i, j, k + 1)))
+          ++expected;
+  EXPECT_EQ(r.boundary.size(), expected);
+  // The smoothed indicator crosses 0.5 between inside and outside.
+  for (std::int32_t v : r.boundary) EXPECT_GT(r.indicator.data[v], 0.2f);
+}
