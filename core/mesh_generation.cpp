@@ -1,0 +1,193 @@
+#include "mesh_generation.h"
+
+#include <algorithm>
+#include <cmath>
+
+#include <CGAL/Delaunay_triangulation_3.h>
+#include <CGAL/Delaunay_triangulation_cell_base_3.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Triangulation_vertex_base_with_info_3.h>
+
+#include "errors.h"
+
+namespace cvt {
+namespace {
+
+using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+using VertexBase = CGAL::Triangulation_vertex_base_with_info_3<int, Kernel>;
+using CellBase = CGAL::Delaunay_triangulation_cell_base_3<Kernel>;  // has circumcenter()
+using DataStructure = CGAL::Triangulation_data_structure_3<VertexBase, CellBase>;
+using Delaunay = CGAL::Delaunay_triangulation_3<Kernel, DataStructure>;
+using Point = Kernel::Point_3;
+
+Point to_point(const Vec3& v) { return {v.x, v.y, v.z}; }
+Vec3 to_vec(const Point& p) { return {p.x(), p.y(), p.z()}; }
+
+Delaunay triangulate(const std::vector<std::pair<Point, int>>& points) {
+  // Range insertion spatially sorts the points; with distinct inputs the result is unique up to
+  // cospherical degeneracies, which CGAL resolves by symbolic perturbation (deterministic).
+  return Delaunay(points.begin(), points.end());
+}
+
+double bounding_diagonal(const std::vector<Vec3>& pts) {
+  Vec3 lo = pts[0], hi = pts[0];
+  for (const Vec3& p : pts)
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], p[a]);
+      hi[a] = std::max(hi[a], p[a]);
+    }
+  return distance(lo, hi);
+}
+
+// Rotates t so its smallest index comes first while keeping the orientation (an even
+// permutation), so equal meshes give equal tet lists whatever order CGAL visits cells in.
+Tet canonical(Tet t) {
+  const int m = int(std::min_element(t.begin(), t.end()) - t.begin());
+  static const int even[4][4] = {{0, 1, 2, 3}, {1, 0, 3, 2}, {2, 3, 0, 1}, {3, 2, 1, 0}};
+  Tet r{t[even[m][0]], t[even[m][1]], t[even[m][2]], t[even[m][3]]};
+  // Among the 3 even rotations of the last three, put the smallest second.
+  for (int k = 0; k < 3 && !(r[1] < r[2] && r[1] < r[3]); ++k) r = {r[0], r[2], r[3], r[1]};
+  return r;
+}
+
+}  // namespace
+
+std::vector<Vec3> compute_poles(const std::vector<Vec3>& surface) {
+  std::vector<std::pair<Point, int>> pts;
+  pts.reserve(surface.size());
+  for (std::size_t i = 0; i < surface.size(); ++i) pts.push_back({to_point(surface[i]), int(i)});
+  const Delaunay dt = triangulate(pts);
+  const double far = 4.0 * bounding_diagonal(surface);
+  Vec3 centroid{0, 0, 0};
+  for (const Vec3& p : surface) centroid += p;
+  centroid = centroid / double(surface.size());
+  std::vector<Vec3> poles;
+  std::vector<Delaunay::Cell_handle> cells;
+  for (auto v = dt.finite_vertices_begin(); v != dt.finite_vertices_end(); ++v) {
+    const Vec3 s = to_vec(v->point());
+    cells.clear();
+    dt.incident_cells(v, std::back_inserter(cells));
+    Vec3 outward{0, 0, 0};
+    bool on_hull = false;
+    double best = -1;
+    Vec3 first{};
+    for (auto c : cells) {
+      if (dt.is_infinite(c)) {
+        // The hull facet of this infinite cell; its outward normal points away from the hull.
+        on_hull = true;
+        const int inf = c->index(dt.infinite_vertex());
+        const Vec3 a = to_vec(c->vertex((inf + 1) & 3)->point()),
+                   b = to_vec(c->vertex((inf + 2) & 3)->point()),
+                   d = to_vec(c->vertex((inf + 3) & 3)->point());
+        Vec3 n = cross(b - a, d - a);
+        // The hull is convex, so the point set's centroid lies behind every hull facet.
+        if (dot(n, a - centroid) < 0) n = n * -1.0;
+        outward += n;
+        continue;
+      }
+      const Vec3 centre = to_vec(dt.dual(c));
+      const double d2 = squared_distance(centre, s);
+      if (d2 > best) {
+        best = d2;
+        first = centre;
+      }
+    }
+    Vec3 direction;
+    if (on_hull) {
+      const double len = norm(outward);
+      if (len == 0) continue;
+      direction = outward / len;
+      first = s + direction * far;
+    } else {
+      direction = first - s;
+    }
+    poles.push_back(first);
+    // The second pole: the farthest Voronoi vertex on the other side of s.
+    double second_best = -1;
+    Vec3 second{};
+    for (auto c : cells) {
+      if (dt.is_infinite(c)) continue;
+      const Vec3 centre = to_vec(dt.dual(c));
+      if (dot(centre - s, direction) >= 0) continue;
+      const double d2 = squared_distance(centre, s);
+      if (d2 > second_best) {
+        second_best = d2;
+        second = centre;
+      }
+    }
+    if (second_best > 0) poles.push_back(second);
+  }
+  return poles;
+}
+
+MeshGenerationResult build_delaunay_mesh(const std::vector<Vec3>& surface,
+                                         const std::vector<Vec3>& interior,
+                                         const InsideFunction& inside,
+                                         const MeshGenerationOptions& options,
+                                         const Progress& progress) {
+  if (surface.size() < 4) throw InputError("mesh generation: fewer than 4 surface samples");
+  MeshGenerationResult out;
+  progress("poles", 0.0);
+  for (const Vec3& pole : compute_poles(surface))
+    (inside(pole) ? out.interior_poles : out.exterior_poles).push_back(pole);
+
+  progress("Delaunay", 0.3);
+  const int nb = int(surface.size()), ni = int(interior.size());
+  std::vector<std::pair<Point, int>> pts;
+  pts.reserve(surface.size() + interior.size() + out.exterior_poles.size());
+  for (int i = 0; i < nb; ++i) pts.push_back({to_point(surface[i]), i});
+  for (int i = 0; i < ni; ++i) pts.push_back({to_point(interior[i]), nb + i});
+  for (std::size_t i = 0; i < out.exterior_poles.size(); ++i)
+    pts.push_back({to_point(out.exterior_poles[i]), -1});  // −1 marks a pole
+  const Delaunay dt = triangulate(pts);
+  progress.check_cancelled();
+
+  progress("pole removal", 0.7);
+  std::vector<Tet> kept;  // indices into B ∪ I
+  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
+    ++out.delaunay_tets;
+    Tet t;
+    bool pole = false;
+    for (int k = 0; k < 4; ++k) {
+      t[k] = c->vertex(k)->info();
+      pole |= t[k] < 0;
+    }
+    if (pole) {
+      ++out.removed_by_poles;
+      continue;
+    }
+    if (options.remove_outside_tets) {
+      Vec3 centroid{0, 0, 0};
+      std::array<Vec3, 4> corners;
+      for (int k = 0; k < 4; ++k) centroid += corners[k] = to_vec(c->vertex(k)->point());
+      if (!inside(centroid / 4.0)) {
+        ++out.removed_by_centroid;
+        out.removed_outside.push_back(corners);
+        continue;
+      }
+    }
+    kept.push_back(t);
+  }
+
+  // Keep only referenced samples, in input order (B first, then I), for a deterministic mesh.
+  std::vector<int> new_index(std::size_t(nb + ni), -1);
+  for (const Tet& t : kept)
+    for (int v : t) new_index[v] = 0;
+  for (int v = 0; v < nb + ni; ++v) {
+    if (new_index[v] < 0) {
+      ++out.unused_samples;
+      continue;
+    }
+    new_index[v] = int(out.mesh.vertices.size());
+    out.mesh.vertices.push_back(v < nb ? surface[v] : interior[v - nb]);
+    out.vertex_source.push_back(v);
+  }
+  out.mesh.tets.reserve(kept.size());
+  for (const Tet& t : kept)
+    out.mesh.tets.push_back(canonical({new_index[t[0]], new_index[t[1]], new_index[t[2]], new_index[t[3]]}));
+  std::sort(out.mesh.tets.begin(), out.mesh.tets.end());
+  progress("mesh", 1.0);
+  return out;
+}
+
+}  // namespace cvt

@@ -1,0 +1,45 @@
+// Stage 5 (paper III-F): a CRUST-like Delaunay mesh. Poles of the surface samples B come from
+// the Voronoi diagram of B; those outside the object (EP) join B ∪ I in a second Delaunay
+// triangulation, and every tet incident to a pole is deleted. Tets that still lie outside the
+// object (deep concavities) are removed by a second, documented rule: centroid outside.
+#pragma once
+
+#include <cstddef>
+#include <functional>
+#include <vector>
+
+#include "progress.h"
+#include "tet_mesh.h"
+
+namespace cvt {
+
+// True where a world point (mm) is inside the object.
+using InsideFunction = std::function<bool(const Vec3& world)>;
+
+struct MeshGenerationOptions {
+  bool remove_outside_tets = true;  // rule 2: drop remaining tets whose centroid is outside
+};
+
+struct MeshGenerationResult {
+  TetMesh mesh;                           // vertices: used samples of B then I (world, mm)
+  std::vector<Vec3> exterior_poles;       // EP (world, mm)
+  std::vector<Vec3> interior_poles;       // poles found inside the object (not inserted)
+  std::vector<std::array<Vec3, 4>> removed_outside;  // tets removed by rule 2, for the viewer
+  std::size_t delaunay_tets = 0;          // finite tets of Delaunay(B ∪ EP ∪ I)
+  std::size_t removed_by_poles = 0;       // rule 1: incident to a pole
+  std::size_t removed_by_centroid = 0;    // rule 2
+  std::size_t unused_samples = 0;         // samples of B ∪ I no kept tet references
+  std::vector<int> vertex_source;         // for each mesh vertex: index into B, or |B| + index in I
+};
+
+MeshGenerationResult build_delaunay_mesh(const std::vector<Vec3>& surface_samples,
+                                         const std::vector<Vec3>& interior_samples,
+                                         const InsideFunction& inside,
+                                         const MeshGenerationOptions& options = {},
+                                         const Progress& progress = {});
+
+// Poles of each surface sample (paper III-F): the farthest Voronoi vertex, and the farthest on
+// the opposite side; for samples on the convex hull, a point far out along the outward normal.
+std::vector<Vec3> compute_poles(const std::vector<Vec3>& surface_samples);
+
+}  // namespace cvt

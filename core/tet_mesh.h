@@ -1,0 +1,36 @@
+// A tetrahedral mesh in world coordinates (mm), the output of stages 5–6.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+#include "vec3.h"
+
+namespace cvt {
+
+using Tet = std::array<std::int32_t, 4>;
+using Triangle = std::array<std::int32_t, 3>;
+
+struct TetMesh {
+  std::vector<Vec3> vertices;        // world positions (mm)
+  std::vector<Tet> tets;             // vertex indices; positively oriented: (b−a)·((c−a)×(d−a)) > 0
+  std::vector<std::int32_t> labels;  // per-tet subdomain label (empty = all 1)
+};
+
+// Signed volume (mm³) of tet t; positive for a positively oriented tet.
+inline double signed_volume(const TetMesh& m, const Tet& t) {
+  const Vec3 &a = m.vertices[t[0]], &b = m.vertices[t[1]], &c = m.vertices[t[2]],
+             &d = m.vertices[t[3]];
+  return dot(b - a, cross(c - a, d - a)) / 6.0;
+}
+
+// The faces of t, each oriented so its normal (right-hand rule) points out of t.
+inline std::array<Triangle, 4> outward_faces(const Tet& t) {
+  return {{{t[1], t[2], t[3]}, {t[0], t[3], t[2]}, {t[0], t[1], t[3]}, {t[0], t[2], t[1]}}};
+}
+
+// Faces used by exactly one tet, oriented outward (the mesh's boundary surface).
+std::vector<Triangle> boundary_triangles(const TetMesh& mesh);
+
+}  // namespace cvt
