@@ -1,0 +1,365 @@
+// ITK readers/writers: NIfTI, NRRD, MetaImage and DICOM series (GDCM). ITK stays inside this file.
+#include <itkGDCMImageIO.h>
+#include <itkGDCMImageIOFactory.h>
+#include <itkGDCMSeriesFileNames.h>
+#include <itkImage.h>
+#include <itkImageFileReader.h>
+#include <itkImageFileWriter.h>
+#include <itkImageIOFactory.h>
+#include <itkImageSeriesReader.h>
+#include <itkMetaImageIOFactory.h>
+#include <itkNiftiImageIOFactory.h>
+#include <itkNrrdImageIOFactory.h>
+#include <zlib.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <mutex>
+#include <new>
+
+#include "errors.h"
+#include "image_io.h"
+#include "memory.h"
+
+namespace cvt {
+namespace io_internal {  // defined in image_io.cpp
+std::string one_line(const std::string& text);
+bool is_integer_pixel_type(const std::string& type);
+std::size_t checked_voxel_count(const std::array<unsigned long long, 3>& dims,
+                                const std::string& path);
+void convert_to_float(const void* src, const std::string& src_type, std::size_t count, float* dst,
+                      bool labels, const std::string& path);
+std::string checked_write_pixel_type(const Image& image, const std::string& path);
+void require_complete_file(const std::string& path, std::size_t expected);
+}  // namespace io_internal
+
+namespace {
+using namespace io_internal;
+
+// Explicit registration: we do not use ITK_USE_FILE's generated registration manager, so only
+// the formats we document are tried, in a known order.
+void register_itk_factories() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    itk::NiftiImageIOFactory::RegisterOneFactory();
+    itk::NrrdImageIOFactory::RegisterOneFactory();
+    itk::MetaImageIOFactory::RegisterOneFactory();
+    itk::GDCMImageIOFactory::RegisterOneFactory();
+    // ITK warnings are multi-line stderr text; our errors carry what the user needs.
+    itk::Object::GlobalWarningDisplayOff();
+  });
+}
+
+// ITK's description without its "ITK ERROR: Class(0x...): " prefix; for NRRD only teem's
+// innermost reason (its messages nest "[nrrd] ...: trouble" several levels deep).
+std::string describe(const itk::ExceptionObject& e) {
+  std::string text = one_line(e.GetDescription());
+  const std::size_t nrrd = text.rfind("[nrrd] ");
+  if (nrrd != std::string::npos) return text.substr(nrrd + 7);
+  for (const char* prefix : {"ITK ERROR: ", "itk::ERROR: "}) {
+    if (text.rfind(prefix, 0) != 0) continue;
+    const std::size_t end = text.find("): ");
+    text = end == std::string::npos ? text.substr(std::strlen(prefix)) : text.substr(end + 3);
+  }
+  return text;
+}
+
+// "uint8", "int16", "float32", ... from ITK's component type (sizes taken from the IO, since
+// `long` differs between platforms).
+std::string pixel_type_name(const itk::ImageIOBase& io) {
+  // ITK names: "unsigned_char", "short", "long_long", "float", "double", "unknown", ...
+  const std::string name = itk::ImageIOBase::GetComponentTypeAsString(io.GetComponentType());
+  const std::string bits = std::to_string(io.GetComponentSize() * 8);
+  if (name == "unknown") return "";
+  if (name == "float" || name == "double") return "float" + bits;
+  return (name.rfind("unsigned", 0) == 0 ? "uint" : "int") + bits;
+}
+
+// Rejects 2D, 4D and vector images; returns the 3D dims.
+std::array<unsigned long long, 3> checked_3d_dims(const itk::ImageIOBase& io,
+                                                  const std::string& path) {
+  const unsigned nd = io.GetNumberOfDimensions();
+  if (nd < 3) throw InputError(path + ": is " + std::to_string(nd) + "D; cvtmesh needs a 3D image");
+  unsigned long long extra = 1;  // volumes along dimensions beyond the third
+  for (unsigned d = 3; d < nd; ++d) extra *= io.GetDimensions(d);
+  if (extra > 1) {
+    throw InputError(path + ": is " + std::to_string(nd) + "D (" + std::to_string(extra) +
+                     " volumes); cvtmesh needs a 3D image");
+  }
+  if (io.GetNumberOfComponents() != 1) {
+    throw InputError(path + ": has " + std::to_string(io.GetNumberOfComponents()) +
+                     " components per voxel (vector/RGB); cvtmesh needs a scalar 3D image");
+  }
+  return {io.GetDimensions(0), io.GetDimensions(1), io.GetDimensions(2)};
+}
+
+// niftilib reads a short .nii/.nii.gz without failing (it zero-fills and at most warns), so we
+// compare the file with vox_offset + data size from the header ourselves.
+void require_complete_nifti(const std::string& path, std::size_t data_bytes) {
+  unsigned char h[176] = {};
+  std::unique_ptr<gzFile_s, int (*)(gzFile)> f(gzopen(path.c_str(), "rb"), gzclose);
+  if (!f || gzread(f.get(), h, sizeof h) != int(sizeof h)) return;  // ITK has judged the header
+  f.reset();
+  auto load = [&](auto value, int offset, bool swap) {
+    unsigned char b[sizeof value];
+    std::memcpy(b, h + offset, sizeof b);
+    if (swap) std::reverse(b, b + sizeof b);
+    std::memcpy(&value, b, sizeof b);
+    return value;
+  };
+  double vox_offset = -1;
+  for (bool swap : {false, true}) {
+    const std::int32_t size = load(std::int32_t{}, 0, swap);
+    if (size == 348) vox_offset = load(float{}, 108, swap);                 // NIfTI-1
+    if (size == 540) vox_offset = double(load(std::int64_t{}, 168, swap));  // NIfTI-2
+  }
+  if (vox_offset >= 0) require_complete_file(path, std::size_t(vox_offset) + data_bytes);
+}
+
+// MetaIO likewise only prints "data not read completely": check the data size ourselves
+// (compressed data against CompressedDataSize, raw data against the voxel count).
+void require_complete_metaimage(const std::string& path, std::size_t data_bytes) {
+  std::ifstream in(path, std::ios::binary);
+  std::string line, data_file;
+  bool compressed = false;
+  std::size_t compressed_size = 0;
+  auto trim = [](std::string t) {
+    const auto b = t.find_first_not_of(" \t\r"), e = t.find_last_not_of(" \t\r");
+    return b == std::string::npos ? std::string() : t.substr(b, e - b + 1);
+  };
+  while (data_file.empty() && std::getline(in, line)) {
+    const std::size_t eq = line.find('=');
+    if (eq == std::string::npos) continue;
+    const std::string key = trim(line.substr(0, eq)), value = trim(line.substr(eq + 1));
+    if (key == "CompressedData") compressed = value == "True" || value == "true" || value == "1";
+    if (key == "CompressedDataSize") compressed_size = std::strtoull(value.c_str(), nullptr, 10);
+    if (key == "ElementDataFile") data_file = value;
+  }
+  const std::size_t needed = compressed ? compressed_size : data_bytes;
+  // Lists and numbered file patterns are left to MetaIO.
+  if (data_file.empty() || needed == 0 || data_file == "LIST" ||
+      data_file.find_first_of("% ") != std::string::npos)
+    return;
+  std::error_code ec;
+  std::size_t have = 0;
+  if (data_file == "LOCAL") {
+    const std::streamoff header = in.tellg();
+    have = header < 0 ? 0 : std::filesystem::file_size(path, ec) - std::size_t(header);
+  } else {
+    std::filesystem::path file(data_file);
+    if (file.is_relative()) file = std::filesystem::path(path).parent_path() / file;
+    have = std::filesystem::file_size(file, ec);
+    if (ec) throw InputError(path + ": its data file " + file.string() + " is missing");
+  }
+  if (have < needed) {
+    throw InputError(path + ": truncated (" + std::to_string(have) + " of " +
+                     std::to_string(needed) + " bytes of voxel data)");
+  }
+}
+
+template <class ImageT>
+Image to_image(const ImageT& itk_image, const std::string& pixel_type, const std::string& path) {
+  Image image;
+  image.pixel_type = pixel_type;
+  image.integer_valued = is_integer_pixel_type(pixel_type);
+  Grid grid;
+  const auto size = itk_image.GetLargestPossibleRegion().GetSize();
+  for (int a = 0; a < 3; ++a) {
+    grid.dims[a] = int(size[a]);
+    grid.spacing[a] = itk_image.GetSpacing()[a];
+    grid.origin[a] = itk_image.GetOrigin()[a];
+    for (int c = 0; c < 3; ++c) grid.direction[a * 3 + c] = itk_image.GetDirection()[a][c];
+  }
+  image.voxels.grid = grid;
+  image.voxels.data.resize(grid.voxel_count());
+  constexpr bool is_float = std::is_same_v<typename ImageT::PixelType, float>;
+  convert_to_float(itk_image.GetBufferPointer(), is_float ? "float32" : "float64",
+                   grid.voxel_count(), image.voxels.data.data(), image.integer_valued, path);
+  return image;
+}
+
+// Bytes needed: our float copy, ITK's output image of TPixel, and ITK's buffer of the file's
+// own type when it differs (ITK converts from it).
+template <class TPixel>
+std::size_t read_bytes(std::size_t voxels, const itk::ImageIOBase& io) {
+  const bool same = io.GetComponentType() == itk::ImageIOBase::MapPixelType<TPixel>::CType;
+  return voxels * (sizeof(float) + sizeof(TPixel) + (same ? 0 : io.GetComponentSize()));
+}
+
+// Runs `read` (a file or series reader returning itk::Image<TPixel, 3>::Pointer) once the
+// memory check passes, and turns ITK's failures into one-line InputErrors.
+template <class TPixel, class Read>
+Image read_as(const std::string& path, const itk::ImageIOBase& io, std::size_t voxels,
+              const ReadOptions& options, Read read) {
+  require_memory(read_bytes<TPixel>(voxels, io), options.max_bytes, path);
+  try {
+    typename itk::Image<TPixel, 3>::Pointer output = read();
+    return to_image(*output, pixel_type_name(io), path);
+  } catch (const itk::ExceptionObject& e) {
+    throw InputError(path + ": cannot read (truncated or corrupt?): " + describe(e));
+  } catch (const std::bad_alloc&) {
+    throw InputError(path + ": not enough memory to read it");
+  }
+}
+
+// Reads 8/16-bit integers and float32 as float (exact); wider types as double so that 32-bit
+// labels are checked against 2^24 before they are narrowed.
+template <class ReadWith>
+Image read_dispatch(const itk::ImageIOBase& io, const std::string& path, ReadWith read_with) {
+  const std::string type = pixel_type_name(io);
+  if (type.empty())
+    throw InputError(path + ": unsupported pixel type " +
+                     itk::ImageIOBase::GetComponentTypeAsString(io.GetComponentType()));
+  const bool narrow =
+      type == "uint8" || type == "int8" || type == "uint16" || type == "int16" || type == "float32";
+  return narrow ? read_with(float{}) : read_with(double{});
+}
+
+template <class TPixel>
+void write_as(const Image& image, const std::string& path) {
+  using ImageT = itk::Image<TPixel, 3>;
+  const Grid& g = image.grid();
+  auto itk_image = ImageT::New();
+  typename ImageT::SizeType size;
+  typename ImageT::SpacingType spacing;
+  typename ImageT::PointType origin;
+  typename ImageT::DirectionType direction;
+  for (int a = 0; a < 3; ++a) {
+    size[a] = itk::SizeValueType(g.dims[a]);
+    spacing[a] = g.spacing[a];
+    origin[a] = g.origin[a];
+    for (int c = 0; c < 3; ++c) direction[a][c] = g.direction[a * 3 + c];
+  }
+  itk_image->SetRegions(typename ImageT::RegionType(size));
+  itk_image->SetSpacing(spacing);
+  itk_image->SetOrigin(origin);
+  itk_image->SetDirection(direction);
+  itk_image->Allocate();
+  TPixel* out = itk_image->GetBufferPointer();
+  const auto& data = image.voxels.data;
+  for (std::size_t i = 0; i < data.size(); ++i) {
+    // Values were range-checked by checked_write_pixel_type; integers are rounded.
+    if constexpr (std::is_integral_v<TPixel>)
+      out[i] = TPixel(std::llrint(data[i]));
+    else
+      out[i] = TPixel(data[i]);
+  }
+  auto writer = itk::ImageFileWriter<ImageT>::New();
+  writer->SetFileName(path);
+  writer->SetInput(itk_image);
+  // Compress inside single-file formats; .mhd/.nhdr keep a raw data file for direct access.
+  const std::string ext = image_extension(path);
+  writer->SetUseCompression(ext == "nii.gz" || ext == "nrrd" || ext == "mha");
+  writer->Update();
+}
+
+}  // namespace
+
+Image read_image_itk(const std::string& path, const ReadOptions& options) {
+  register_itk_factories();
+  itk::ImageIOBase::Pointer io =
+      itk::ImageIOFactory::CreateImageIO(path.c_str(), itk::IOFileModeEnum::ReadMode);
+  if (!io) {
+    throw InputError(path + ": not a valid ." + image_extension(path) +
+                     " file (cannot read its header)");
+  }
+  io->SetFileName(path);
+  try {
+    io->ReadImageInformation();
+  } catch (const itk::ExceptionObject& e) {
+    throw InputError(path + ": cannot read its header: " + describe(e));
+  }
+  const std::size_t voxels = checked_voxel_count(checked_3d_dims(*io, path), path);
+  const std::string ext = image_extension(path);
+  const std::size_t data_bytes = voxels * io->GetComponentSize();
+  if (ext == "nii" || ext == "nii.gz") require_complete_nifti(path, data_bytes);
+  if (ext == "mha" || ext == "mhd") require_complete_metaimage(path, data_bytes);
+  return read_dispatch(*io, path, [&](auto pixel) {
+    using TPixel = decltype(pixel);
+    return read_as<TPixel>(path, *io, voxels, options, [&] {
+      auto reader = itk::ImageFileReader<itk::Image<TPixel, 3>>::New();
+      reader->SetFileName(path);
+      reader->SetImageIO(io);
+      reader->Update();
+      return typename itk::Image<TPixel, 3>::Pointer(reader->GetOutput());
+    });
+  });
+}
+
+Image read_dicom_series_itk(const std::string& folder, const ReadOptions& options) {
+  register_itk_factories();
+  std::vector<std::string> files;
+  try {
+    auto names = itk::GDCMSeriesFileNames::New();
+    names->SetUseSeriesDetails(true);
+    names->SetDirectory(folder);
+    const auto& series = names->GetSeriesUIDs();
+    if (!series.empty()) files = names->GetFileNames(series.front());
+  } catch (const itk::ExceptionObject& e) {
+    throw InputError(folder + ": cannot scan for DICOM files: " + describe(e));
+  }
+  if (files.empty()) {
+    throw InputError(folder +
+                     ": folder holds no DICOM series and no .tif/.tiff/.png slices to read");
+  }
+  auto io = itk::GDCMImageIO::New();
+  io->SetFileName(files.front());
+  try {
+    io->ReadImageInformation();
+  } catch (const itk::ExceptionObject& e) {
+    throw InputError(files.front() + ": cannot read DICOM header: " + describe(e));
+  }
+  if (io->GetNumberOfComponents() != 1) {
+    throw InputError(folder + ": DICOM series has " + std::to_string(io->GetNumberOfComponents()) +
+                     " components per voxel (RGB?); cvtmesh needs a scalar 3D image");
+  }
+  // One file per slice, unless a single multi-frame file holds the whole volume.
+  unsigned long long nz = files.size();
+  if (nz == 1 && io->GetNumberOfDimensions() >= 3) nz = io->GetDimensions(2);
+  if (nz < 2)
+    throw InputError(folder + ": DICOM series is 2D (one slice); cvtmesh needs a 3D image");
+  const std::size_t voxels =
+      checked_voxel_count({io->GetDimensions(0), io->GetDimensions(1), nz}, folder);
+  return read_dispatch(*io, folder, [&](auto pixel) {
+    using TPixel = decltype(pixel);
+    return read_as<TPixel>(folder, *io, voxels, options, [&] {
+      auto reader = itk::ImageSeriesReader<itk::Image<TPixel, 3>>::New();
+      reader->SetImageIO(io);
+      reader->SetFileNames(files);
+      reader->Update();
+      return typename itk::Image<TPixel, 3>::Pointer(reader->GetOutput());
+    });
+  });
+}
+
+void write_image_itk(const Image& image, const std::string& path) {
+  register_itk_factories();
+  const std::string type = checked_write_pixel_type(image, path);
+  try {
+    if (type == "uint8")
+      write_as<std::uint8_t>(image, path);
+    else if (type == "int8")
+      write_as<std::int8_t>(image, path);
+    else if (type == "uint16")
+      write_as<std::uint16_t>(image, path);
+    else if (type == "int16")
+      write_as<std::int16_t>(image, path);
+    else if (type == "uint32")
+      write_as<std::uint32_t>(image, path);
+    else if (type == "int32")
+      write_as<std::int32_t>(image, path);
+    else if (type == "float64")
+      write_as<double>(image, path);
+    else
+      write_as<float>(image, path);
+  } catch (const itk::ExceptionObject& e) {
+    throw InputError("cannot write " + path + ": " + describe(e));
+  } catch (const std::bad_alloc&) {
+    throw InputError("cannot write " + path + ": not enough memory");
+  }
+}
+
+}  // namespace cvt

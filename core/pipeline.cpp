@@ -1,0 +1,170 @@
+#include "pipeline.h"
+
+#include <algorithm>
+#include <chrono>
+
+#include "errors.h"
+#include "memory.h"
+#include "smoothing.h"
+
+namespace cvt {
+
+const char* stage_name(Stage stage) {
+  static const char* names[] = {"preprocess", "surface sampling", "CVT sampling",
+                                "shallow points", "mesh generation"};
+  return names[int(stage)];
+}
+
+PreprocessOptions preprocess_options(const Parameters& p) {
+  PreprocessOptions o;
+  o.selection.labels = p.labels;
+  o.selection.iso = p.iso;
+  o.selection.inside_above = p.inside_above;
+  o.selection.margin_voxels = p.margin_voxels;
+  o.cleanup.remove_small_components = p.remove_small_components;
+  o.cleanup.min_component_fraction = p.min_component_fraction;
+  o.cleanup.fill_cavities = p.fill_cavities;
+  o.smoothing_sigma_mm = p.smoothing_sigma_mm;
+  o.medial_axis.min_separation_mm = p.medial_min_separation_mm;
+  o.medial_axis.min_angle_deg = p.medial_min_angle_deg;
+  o.lfs.min_mm = p.lfs_min_mm;
+  o.lfs.max_mm = p.lfs_max_mm;
+  return o;
+}
+
+SurfaceSamplingOptions surface_options(const Parameters& p) {
+  SurfaceSamplingOptions o;
+  o.r = p.r;
+  o.sigma_mm = p.sigma_surface_mm;
+  o.project_to_surface = p.project_samples;
+  return o;
+}
+
+CvtOptions cvt_options(const Parameters& p, double default_spacing_mm) {
+  CvtOptions o;
+  o.sigma_density_mm = p.sigma_density_mm;
+  o.interior_spacing_mm = p.interior_spacing_mm > 0 ? p.interior_spacing_mm : default_spacing_mm;
+  o.interior_points = p.interior_points;
+  o.epsilon_mm = p.epsilon_mm;
+  o.max_iterations = p.max_iterations;
+  o.seed = p.seed;
+  return o;
+}
+
+Stage first_changed_stage(const Parameters& a, const Parameters& b) {
+  // Compare each stage's own options; stages are listed upstream first.
+  const auto same_pre = [&] {
+    Parameters x = a, y = b;
+    return x.labels == y.labels && x.iso == y.iso && x.inside_above == y.inside_above &&
+           x.margin_voxels == y.margin_voxels &&
+           x.remove_small_components == y.remove_small_components &&
+           x.min_component_fraction == y.min_component_fraction &&
+           x.fill_cavities == y.fill_cavities && x.smoothing_sigma_mm == y.smoothing_sigma_mm &&
+           x.medial_min_separation_mm == y.medial_min_separation_mm &&
+           x.medial_min_angle_deg == y.medial_min_angle_deg && x.lfs_min_mm == y.lfs_min_mm &&
+           x.lfs_max_mm == y.lfs_max_mm;
+  };
+  if (!same_pre()) return Stage::preprocess;
+  if (a.r != b.r || a.sigma_surface_mm != b.sigma_surface_mm ||
+      a.project_samples != b.project_samples)
+    return Stage::surface;
+  if (a.sigma_density_mm != b.sigma_density_mm || a.interior_spacing_mm != b.interior_spacing_mm ||
+      a.interior_points != b.interior_points || a.epsilon_mm != b.epsilon_mm ||
+      a.max_iterations != b.max_iterations || a.seed != b.seed)
+    return Stage::cvt;
+  return Stage::count;  // optimize and threads do not change stages 1–5
+}
+
+void Pipeline::set_image(std::shared_ptr<const Image> image) {
+  image_ = std::move(image);
+  invalidate_from(Stage::preprocess);
+}
+
+void Pipeline::set_parameters(const Parameters& parameters) {
+  validate(parameters);
+  const Stage changed = first_changed_stage(parameters_, parameters);
+  parameters_ = parameters;
+  if (changed != Stage::count) invalidate_from(changed);
+}
+
+void Pipeline::invalidate_from(Stage s) {
+  for (int i = int(s); i < kStageCount; ++i) done_[i] = false;
+  switch (s) {  // drop results that no longer match (each case falls through downstream)
+    case Stage::preprocess: preprocess_.reset(); [[fallthrough]];
+    case Stage::surface: surface_.reset(); [[fallthrough]];
+    case Stage::cvt: lloyd_.reset(); [[fallthrough]];
+    case Stage::shallow: shallow_.reset(); [[fallthrough]];
+    case Stage::mesh: mesh_.reset(); [[fallthrough]];
+    case Stage::count: break;
+  }
+}
+
+double Pipeline::default_interior_spacing_mm() const {
+  if (!surface_ || surface_->voxels.empty()) return 0;
+  std::vector<double> spacing;
+  spacing.reserve(surface_->voxels.size());
+  for (std::int32_t v : surface_->voxels) spacing.push_back(parameters_.r * preprocess_->lfs_mm.data[v]);
+  std::nth_element(spacing.begin(), spacing.begin() + spacing.size() / 2, spacing.end());
+  return spacing[spacing.size() / 2];
+}
+
+void Pipeline::start_lloyd() {
+  lloyd_ = std::make_unique<LloydStepper>(*preprocess_,
+                                          cvt_options(parameters_, default_interior_spacing_mm()));
+  lloyd_->initialize();
+}
+
+void Pipeline::run_stage(Stage s, const Progress& progress) {
+  const auto t0 = std::chrono::steady_clock::now();
+  switch (s) {
+    case Stage::preprocess:
+      if (!image_) throw InputError("no image loaded");
+      preprocess_ = std::make_unique<PreprocessResult>(
+          cvt::preprocess(*image_, preprocess_options(parameters_), progress));
+      break;
+    case Stage::surface:
+      surface_ = std::make_unique<SurfaceSamples>(
+          sample_surface(*preprocess_, surface_options(parameters_), progress));
+      break;
+    case Stage::cvt:
+      if (!lloyd_) start_lloyd();
+      lloyd_->run_to_convergence(progress);
+      break;
+    case Stage::shallow:
+      shallow_ = std::make_unique<ShallowResult>(remove_shallow_points(
+          lloyd_->sites_world(), lloyd_->owners_of(preprocess_->boundary)));
+      break;
+    case Stage::mesh: {
+      const Volume<float>& indicator = preprocess_->indicator;
+      auto inside = [&indicator](const Vec3& world) {
+        const Vec3 idx = indicator.grid.world_to_index(world);
+        for (int a = 0; a < 3; ++a)
+          if (!(idx[a] >= 0 && idx[a] <= indicator.grid.dims[a] - 1)) return false;
+        return sample_trilinear(indicator, idx) >= 0.5f;
+      };
+      mesh_ = std::make_unique<MeshGenerationResult>(
+          build_delaunay_mesh(surface_->world, shallow_->kept_world, inside, {}, progress));
+      break;
+    }
+    case Stage::count: break;
+  }
+  done_[int(s)] = true;
+  const std::chrono::duration<double> d = std::chrono::steady_clock::now() - t0;
+  records_.push_back({stage_name(s), d.count(), double(peak_rss_bytes()) / (1024.0 * 1024.0)});
+}
+
+void Pipeline::run_through(Stage last, const Progress& progress) {
+  for (int s = 0; s <= int(last); ++s)
+    if (!done_[s]) run_stage(Stage(s), progress);
+}
+
+int Pipeline::step_lloyd(int k, const Progress& progress) {
+  run_through(Stage::surface, progress);
+  if (!lloyd_) start_lloyd();
+  invalidate_from(Stage::shallow);
+  const int done = k < 0 ? lloyd_->run_to_convergence(progress) : lloyd_->run(k, progress);
+  done_[int(Stage::cvt)] = lloyd_->converged();
+  return done;
+}
+
+}  // namespace cvt

@@ -1,0 +1,87 @@
+// The pipeline the CLI and the viewer both drive: it owns the image, the parameters and every
+// stage's result, knows which stages are stale after a parameter change (that stage and all
+// downstream), and can be stepped: one stage, k Lloyd iterations, or everything. Not
+// thread-safe: the viewer calls it from one worker thread at a time and reads results between
+// jobs; cancellation goes through Progress.
+#pragma once
+
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "cvt_sampling.h"
+#include "image.h"
+#include "mesh_generation.h"
+#include "parameters.h"
+#include "preprocess.h"
+#include "progress.h"
+#include "shallow_points.h"
+#include "surface_sampling.h"
+
+namespace cvt {
+
+enum class Stage { preprocess, surface, cvt, shallow, mesh, count };
+inline constexpr int kStageCount = int(Stage::count);
+const char* stage_name(Stage stage);
+
+// The first stage whose result depends on a parameter that differs (Stage::count if none).
+Stage first_changed_stage(const Parameters& a, const Parameters& b);
+
+// Options of each stage from the flat parameters.
+PreprocessOptions preprocess_options(const Parameters& p);
+SurfaceSamplingOptions surface_options(const Parameters& p);
+CvtOptions cvt_options(const Parameters& p, double default_spacing_mm);
+
+struct StageRecord {
+  std::string name;
+  double wall_s = 0;
+  double peak_rss_mb = 0;  // process peak so far, when the stage ended
+};
+
+class Pipeline {
+ public:
+  void set_image(std::shared_ptr<const Image> image);  // makes every stage stale
+  const Image* image() const { return image_.get(); }
+
+  const Parameters& parameters() const { return parameters_; }
+  // Validates (InputError naming the key) and marks the affected stages stale.
+  void set_parameters(const Parameters& parameters);
+
+  bool is_stale(Stage s) const { return !done_[int(s)]; }
+  // Runs every stale stage up to and including `last`.
+  void run_through(Stage last, const Progress& progress = {});
+  void run_all(const Progress& progress = {}) { run_through(Stage::mesh, progress); }
+
+  // Lloyd stepping (stage 3): runs stages 1–2 if stale, starts the stepper if needed, then k
+  // iterations (or to convergence with k < 0); later stages become stale. Returns iterations.
+  int step_lloyd(int k, const Progress& progress = {});
+
+  // Results (null / empty until the stage has run).
+  const PreprocessResult* preprocess() const { return preprocess_.get(); }
+  const SurfaceSamples* surface() const { return surface_.get(); }
+  const LloydStepper* lloyd() const { return lloyd_.get(); }
+  const ShallowResult* shallow() const { return shallow_.get(); }
+  const MeshGenerationResult* mesh() const { return mesh_.get(); }
+  // Default interior spacing: the median r·lfs over the surface samples (their spacing).
+  double default_interior_spacing_mm() const;
+
+  const std::vector<StageRecord>& records() const { return records_; }
+
+ private:
+  void run_stage(Stage s, const Progress& progress);
+  void invalidate_from(Stage s);
+  void start_lloyd();
+
+  std::shared_ptr<const Image> image_;
+  Parameters parameters_;
+  bool done_[kStageCount] = {};
+  std::unique_ptr<PreprocessResult> preprocess_;
+  std::unique_ptr<SurfaceSamples> surface_;
+  std::unique_ptr<LloydStepper> lloyd_;
+  std::unique_ptr<ShallowResult> shallow_;
+  std::unique_ptr<MeshGenerationResult> mesh_;
+  std::vector<StageRecord> records_;
+};
+
+}  // namespace cvt

@@ -1,0 +1,398 @@
+// Image IO: geometry and value round trips per format, slice folders, DICOM, the real liver,
+// and one-line InputErrors for bad input.
+#include <OpenImageIO/imageio.h>
+#include <gtest/gtest.h>
+#include <itkGDCMImageIO.h>
+#include <itkImage.h>
+#include <itkImageFileWriter.h>
+#include <itkImageSeriesWriter.h>
+#include <itkMetaDataObject.h>
+#include <itkNiftiImageIO.h>
+#include <itkVector.h>
+#include <unistd.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <random>
+#include <sstream>
+
+#include "errors.h"
+#include "image_io.h"
+
+namespace fs = std::filesystem;
+using cvt::Image;
+
+namespace {
+
+// A fresh folder under the system temp dir, removed with everything in it.
+struct TempDir {
+  fs::path path;
+  TempDir() {
+    static int counter = 0;
+    path = fs::temp_directory_path() /
+           ("cvtmesh-test-io-" + std::to_string(::getpid()) + "-" + std::to_string(counter++));
+    fs::create_directories(path);
+  }
+  ~TempDir() { fs::remove_all(path); }
+  std::string operator/(const std::string& name) const { return (path / name).string(); }
+};
+
+// Rotation by `angle` about the unit axis (1,2,3)/√14 (Rodrigues), row-major.
+std::array<double, 9> rotation(double angle) {
+  const double n = std::sqrt(14.0), x = 1 / n, y = 2 / n, z = 3 / n;
+  const double c = std::cos(angle), s = std::sin(angle), t = 1 - c;
+  return {t * x * x + c,     t * x * y - s * z, t * x * z + s * y, t * x * y + s * z, t * y * y + c,
+          t * y * z - s * x, t * x * z - s * y, t * y * z + s * x, t * z * z + c};
+}
+
+Image make_image(const std::string& pixel_type, bool rotated) {
+  Image im;
+  im.pixel_type = pixel_type;
+  im.integer_valued = pixel_type != "float32";
+  cvt::Grid& g = im.voxels.grid;
+  g.dims = {13, 11, 7};
+  g.spacing = {0.7, 0.8, 1.3};
+  g.origin = {-12.5, 30.25, 101.75};
+  if (rotated) g.direction = rotation(0.4);
+  im.voxels.data.resize(g.voxel_count());
+  for (std::size_t n = 0; n < im.voxels.data.size(); ++n) {
+    float v = float((n * 37) % 256);                                        // uint8
+    if (pixel_type == "int16") v = float(int(n * 97 % 6001) - 3000);        // negative too
+    if (pixel_type == "float32") v = float(std::sin(double(n)) * 123.456);  // non-integer
+    im.voxels.data[n] = v;
+  }
+  return im;
+}
+
+void expect_same(const Image& a, const Image& b, double origin_tolerance = 1e-5) {
+  EXPECT_EQ(a.grid().dims, b.grid().dims);
+  for (int i = 0; i < 3; ++i) {
+    EXPECT_NEAR(a.grid().spacing[i], b.grid().spacing[i], 1e-5);
+    EXPECT_NEAR(a.grid().origin[i], b.grid().origin[i], origin_tolerance);
+  }
+  for (int i = 0; i < 9; ++i) EXPECT_NEAR(a.grid().direction[i], b.grid().direction[i], 1e-5);
+  EXPECT_EQ(a.pixel_type, b.pixel_type);
+  EXPECT_EQ(a.integer_valued, b.integer_valued);
+  EXPECT_TRUE(a.voxels.data == b.voxels.data) << "voxel values differ";
+}
+
+// `f` must throw cvt::InputError whose single-line message names `path`.
+void expect_input_error(const std::function<void()>& f, const std::string& path,
+                        const std::string& also = "") {
+  try {
+    f();
+    ADD_FAILURE() << "no InputError for " << path;
+  } catch (const cvt::InputError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find(path), std::string::npos) << what;
+    EXPECT_EQ(what.find('\n'), std::string::npos) << what;
+    if (!also.empty()) EXPECT_NE(what.find(also), std::string::npos) << what;
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "expected InputError, got: " << e.what();
+  }
+}
+
+void truncate_file(const std::string& path, double fraction) {
+  fs::resize_file(path, std::uintmax_t(double(fs::file_size(path)) * fraction));
+}
+
+void write_bytes(const std::string& path, const std::string& bytes) {
+  std::ofstream(path, std::ios::binary) << bytes;
+}
+
+template <class T>
+void write_slice(const std::string& file, int w, int h, OIIO::TypeDesc type,
+                 const std::vector<T>& pixels) {
+  auto out = OIIO::ImageOutput::create(file);
+  ASSERT_TRUE(out) << OIIO::geterror();
+  ASSERT_TRUE(out->open(file, OIIO::ImageSpec(w, h, 1, type)));
+  ASSERT_TRUE(out->write_image(type, pixels.data()));
+  out->close();
+}
+
+}  // namespace
+
+TEST(ImageIO, Extension) {
+  EXPECT_EQ(cvt::image_extension("a/B.NII.GZ"), "nii.gz");
+  EXPECT_EQ(cvt::image_extension("x.inr.gz"), "inr.gz");
+  EXPECT_EQ(cvt::image_extension("dir.d/x.nrrd"), "nrrd");
+  EXPECT_EQ(cvt::image_extension("dir.d/noext"), "");
+}
+
+TEST(ImageIO, RoundTripItkFormats) {
+  TempDir dir;
+  for (std::string ext : {"nii", "nii.gz", "nrrd", "mha", "mhd"}) {
+    for (std::string type : {"uint8", "int16", "float32"}) {
+      SCOPED_TRACE(ext + " " + type);
+      const Image im = make_image(type, /*rotated=*/true);
+      const std::string path = dir / ("im_" + type + "." + ext);
+      cvt::write_image(im, path);
+      const Image back = cvt::read_image(path);
+      expect_same(im, back);
+      EXPECT_EQ(back.source, path);
+    }
+  }
+  EXPECT_TRUE(fs::exists(dir / "im_uint8.raw"));              // .mhd data file moved along
+  for (const auto& entry : fs::directory_iterator(dir.path))  // no temp folder left behind
+    EXPECT_EQ(entry.path().filename().string().find(".cvtmesh-tmp"), std::string::npos);
+}
+
+TEST(ImageIO, RoundTripInr) {
+  TempDir dir;
+  for (std::string ext : {"inr", "inr.gz"}) {
+    for (std::string type : {"uint8", "int16", "float32"}) {
+      SCOPED_TRACE(ext + " " + type);
+      const Image im = make_image(type, /*rotated=*/false);
+      const std::string path = dir / ("im_" + type + "." + ext);
+      cvt::write_image(im, path);
+      expect_same(im, cvt::read_image(path), 1e-4);  // INR keeps the origin as float
+    }
+  }
+  const std::string rotated = dir / "rotated.inr";
+  expect_input_error([&] { cvt::write_image(make_image("uint8", true), rotated); }, rotated,
+                     "direction");
+  EXPECT_FALSE(fs::exists(rotated));
+}
+
+TEST(ImageIO, FloatNaNIsReadNotRejected) {
+  TempDir dir;
+  Image im = make_image("float32", false);
+  im.voxels.data[5] = std::nanf("");
+  cvt::write_image(im, dir / "nan.nrrd");
+  EXPECT_TRUE(std::isnan(cvt::read_image(dir / "nan.nrrd").voxels.data[5]));
+  // niftilib replaces non-finite floats by 0 when reading; still no failure.
+  cvt::write_image(im, dir / "nan.nii");
+  EXPECT_EQ(cvt::read_image(dir / "nan.nii").voxels.data[5], 0.0f);
+}
+
+TEST(ImageIO, SliceFolders) {
+  TempDir dir;
+  const int w = 9, h = 7, n = 11;
+  auto value = [](int i, int j, int k) { return (i + 3 * j + 17 * k) % 200; };
+  struct Case {
+    std::string name, ext, type;
+    OIIO::TypeDesc desc;
+  };
+  for (const Case& c : {Case{"png8", "png", "uint8", OIIO::TypeDesc::UINT8},
+                        Case{"png16", "png", "uint16", OIIO::TypeDesc::UINT16},
+                        Case{"tif16", "tif", "uint16", OIIO::TypeDesc::UINT16},
+                        Case{"tiffloat", "tiff", "float32", OIIO::TypeDesc::FLOAT}}) {
+    SCOPED_TRACE(c.name);
+    const fs::path folder = dir.path / c.name;
+    fs::create_directory(folder);
+    // Unpadded numbers: s2 must come before s10.
+    for (int k = 0; k < n; ++k) {
+      std::vector<float> px(w * h);
+      for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i)
+          px[j * w + i] = float(value(i, j, k) * (c.type == "uint16" ? 300 : 1));
+      const std::string file = (folder / ("s" + std::to_string(k + 1) + "." + c.ext)).string();
+      // OIIO converts float → integer types by normalised scaling; give it the stored type.
+      if (c.type == "uint8")
+        write_slice(file, w, h, c.desc, std::vector<std::uint8_t>(px.begin(), px.end()));
+      else if (c.type == "uint16")
+        write_slice(file, w, h, c.desc, std::vector<std::uint16_t>(px.begin(), px.end()));
+      else
+        write_slice(file, w, h, c.desc, px);
+    }
+    write_bytes((folder / "notes.txt").string(), "ignored");
+    cvt::ReadOptions options;
+    options.slice_spacing_mm = {0.5, 0.6, 2.5};
+    const Image im = cvt::read_image(folder.string(), options);
+    EXPECT_EQ(im.grid().dims, (std::array<int, 3>{w, h, n}));
+    EXPECT_EQ(im.grid().spacing.z, 2.5);
+    EXPECT_EQ(im.pixel_type, c.type);
+    EXPECT_EQ(im.integer_valued, c.type != "float32");
+    for (int k = 0; k < n; ++k)
+      for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i)
+          ASSERT_EQ(im.voxels.at(i, j, k), float(value(i, j, k) * (c.type == "uint16" ? 300 : 1)));
+  }
+}
+
+TEST(ImageIO, DicomSeries) {
+  using Image3 = itk::Image<std::int16_t, 3>;
+  using Image2 = itk::Image<std::int16_t, 2>;
+  TempDir dir;
+  const Image im = make_image("int16", /*rotated=*/true);
+  const cvt::Grid& g = im.grid();
+  auto itk_image = Image3::New();
+  Image3::SizeType size = {{13, 11, 7}};
+  itk_image->SetRegions(Image3::RegionType(size));
+  Image3::SpacingType spacing;
+  Image3::PointType origin;
+  Image3::DirectionType direction;
+  for (int a = 0; a < 3; ++a) {
+    spacing[a] = g.spacing[a];
+    origin[a] = g.origin[a];
+    for (int c = 0; c < 3; ++c) direction[a][c] = g.direction[a * 3 + c];
+  }
+  itk_image->SetSpacing(spacing);
+  itk_image->SetOrigin(origin);
+  itk_image->SetDirection(direction);
+  itk_image->Allocate();
+  for (std::size_t i = 0; i < im.voxels.size(); ++i)
+    itk_image->GetBufferPointer()[i] = std::int16_t(im.voxels.data[i]);
+  // GDCM takes each slice's geometry from its dictionary, as a scanner would write it.
+  std::vector<std::unique_ptr<itk::MetaDataDictionary>> owned;
+  itk::ImageSeriesWriter<Image3, Image2>::DictionaryArrayType dictionaries;
+  std::vector<std::string> files;
+  const auto& d = g.direction;
+  auto str = [](std::initializer_list<double> v) {
+    std::ostringstream s;
+    s.precision(10);
+    for (double x : v) s << (s.tellp() ? "\\" : "") << x;
+    return s.str();
+  };
+  for (int k = 0; k < g.dims[2]; ++k) {
+    owned.push_back(std::make_unique<itk::MetaDataDictionary>());
+    auto& dict = *owned.back();
+    const cvt::Vec3 p = g.index_to_world({0, 0, double(k)});
+    const std::string root = "1.2.826.0.1.3680043.2.1125.7777.";
+    itk::EncapsulateMetaData<std::string>(dict, "0008|0060", "CT");
+    itk::EncapsulateMetaData<std::string>(dict, "0028|0004", "MONOCHROME2");
+    itk::EncapsulateMetaData<std::string>(dict, "0008|0016", "1.2.840.10008.5.1.4.1.1.2");
+    itk::EncapsulateMetaData<std::string>(dict, "0020|000d", root + "1");
+    itk::EncapsulateMetaData<std::string>(dict, "0020|000e", root + "2");
+    itk::EncapsulateMetaData<std::string>(dict, "0008|0018", root + "3." + std::to_string(k + 1));
+    itk::EncapsulateMetaData<std::string>(dict, "0020|0013", std::to_string(k + 1));
+    itk::EncapsulateMetaData<std::string>(dict, "0020|0032", str({p.x, p.y, p.z}));
+    itk::EncapsulateMetaData<std::string>(dict, "0020|0037",
+                                          str({d[0], d[3], d[6], d[1], d[4], d[7]}));
+    itk::EncapsulateMetaData<std::string>(dict, "0028|0030", str({g.spacing.y, g.spacing.x}));
+    itk::EncapsulateMetaData<std::string>(dict, "0018|0050", str({g.spacing.z}));
+    dictionaries.push_back(&dict);
+    files.push_back(dir / ("slice" + std::to_string(k + 1) + ".dcm"));
+  }
+  auto io = itk::GDCMImageIO::New();
+  io->KeepOriginalUIDOn();
+  auto writer = itk::ImageSeriesWriter<Image3, Image2>::New();
+  writer->SetInput(itk_image);
+  writer->SetImageIO(io);
+  writer->SetFileNames(files);
+  writer->SetMetaDataDictionaryArray(&dictionaries);
+  ASSERT_NO_THROW(writer->Update());
+  expect_same(im, cvt::read_image(dir.path.string()), 1e-4);
+}
+
+TEST(ImageIO, RealLiver) {
+  const std::string path = CVTMESH_SOURCE_DIR "/data/liver.inr.gz";
+  ASSERT_TRUE(fs::exists(path)) << path << " is missing: run scripts/fetch-data";
+  const Image im = cvt::read_image(path);
+  EXPECT_EQ(im.grid().dims, (std::array<int, 3>{438, 353, 165}));
+  EXPECT_NEAR(im.grid().spacing.x, 0.617188, 1e-5);
+  EXPECT_NEAR(im.grid().spacing.y, 0.617188, 1e-5);
+  EXPECT_NEAR(im.grid().spacing.z, 1.33333, 1e-5);
+  EXPECT_TRUE(im.integer_valued);
+  const std::map<std::int64_t, std::size_t> expected = {
+      {0, 22019024}, {255, 3160496}, {127, 314086}, {85, 17702}, {84, 2}};
+  EXPECT_EQ(cvt::label_histogram(im), expected);
+}
+
+TEST(ImageIO, BadInputs) {
+  TempDir dir;
+  auto read = [](const std::string& p) { return [p] { cvt::read_image(p); }; };
+  expect_input_error(read(dir / "missing.nii"), dir / "missing.nii", "no such file");
+  write_bytes(dir / "a.xyz", "x");
+  expect_input_error(read(dir / "a.xyz"), dir / "a.xyz", "unsupported image format '.xyz'");
+
+  for (std::string name : {"cut.nii.gz", "cut.nii", "cut.nrrd", "cut.mha", "cut.nhdr"}) {
+    cvt::write_image(make_image("float32", true), dir / name);
+    truncate_file(dir / name, 0.5);
+    expect_input_error(read(dir / name), dir / name);
+  }
+  cvt::write_image(make_image("float32", true), dir / "cut.mhd");
+  truncate_file(dir / "cut.raw", 0.5);  // the data file beside the header
+  expect_input_error(read(dir / "cut.mhd"), dir / "cut.mhd");
+  cvt::write_image(make_image("float32", true), dir / "cut2.nhdr");
+  truncate_file(dir / "cut2.raw", 0.5);
+  expect_input_error(read(dir / "cut2.nhdr"), dir / "cut2.nhdr");
+
+  std::mt19937 rng(1);
+  std::string garbage(4000, '\0');
+  for (char& c : garbage) c = char(rng());
+  write_bytes(dir / "garbage.nii", garbage);
+  expect_input_error(read(dir / "garbage.nii"), dir / "garbage.nii");
+  write_bytes(dir / "garbage.inr.gz", garbage);
+  expect_input_error(read(dir / "garbage.inr.gz"), dir / "garbage.inr.gz");
+
+  for (std::string name : {"cut.inr.gz", "cut.inr"}) {
+    cvt::write_image(make_image("int16", false), dir / name);
+    truncate_file(dir / name, 0.5);
+    expect_input_error(read(dir / name), dir / name);
+  }
+  const std::string liver = CVTMESH_SOURCE_DIR "/data/liver.inr.gz";
+  if (fs::exists(liver)) {
+    for (double fraction : {0.5, 0.99, 0.001}) {
+      fs::copy_file(liver, dir / "liver.inr.gz", fs::copy_options::overwrite_existing);
+      truncate_file(dir / "liver.inr.gz", fraction);
+      expect_input_error(read(dir / "liver.inr.gz"), dir / "liver.inr.gz");
+    }
+  }
+
+  // Headers announcing an empty or a huge image: refused before any voxel is read.
+  auto inr_header = [](const std::string& dims) {
+    std::string h = "#INRIMAGE-4#{\n" + dims + "VDIM=1\nTYPE=unsigned fixed\nPIXSIZE=8 bits\n";
+    h += "CPU=decm\nVX=1\nVY=1\nVZ=1\n";
+    return h + std::string(252 - h.size(), '\n') + "##}\n";
+  };
+  write_bytes(dir / "empty.inr", inr_header("XDIM=0\nYDIM=5\nZDIM=5\n"));
+  expect_input_error(read(dir / "empty.inr"), dir / "empty.inr", "empty");
+  write_bytes(dir / "huge.inr", inr_header("XDIM=100000\nYDIM=100000\nZDIM=100000\n"));
+  expect_input_error(read(dir / "huge.inr"), dir / "huge.inr", "MB");
+
+  // 2D, 4D and vector images.
+  write_slice(dir / "slice.png", 4, 4, OIIO::TypeDesc::UINT8, std::vector<std::uint8_t>(16, 7));
+  expect_input_error(read(dir / "slice.png"), dir / "slice.png", "is 2D");
+  auto write_nii = [](auto itk_image, const std::string& path) {
+    using ImageT = typename decltype(itk_image)::ObjectType;
+    typename ImageT::SizeType size;
+    size.Fill(4);
+    itk_image->SetRegions(typename ImageT::RegionType(size));
+    itk_image->Allocate(true);
+    auto writer = itk::ImageFileWriter<ImageT>::New();
+    writer->SetImageIO(itk::NiftiImageIO::New());
+    writer->SetFileName(path);
+    writer->SetInput(itk_image);
+    writer->Update();
+  };
+  write_nii(itk::Image<std::uint8_t, 2>::New(), dir / "flat.nii");
+  expect_input_error(read(dir / "flat.nii"), dir / "flat.nii", "is 2D");
+  write_nii(itk::Image<float, 4>::New(), dir / "time.nii");
+  expect_input_error(read(dir / "time.nii"), dir / "time.nii", "is 4D");
+  write_nii(itk::Image<itk::Vector<float, 3>, 3>::New(), dir / "vector.nii");
+  expect_input_error(read(dir / "vector.nii"), dir / "vector.nii", "components");
+
+  // Folders with nothing to read.
+  fs::create_directory(dir.path / "empty");
+  expect_input_error(read(dir / "empty"), dir / "empty");
+  fs::create_directory(dir.path / "text");
+  write_bytes(dir / "text/readme.txt", "no images here");
+  expect_input_error(read(dir / "text"), dir / "text");
+
+  // Labels a float cannot hold, and a memory limit.
+  Image big = make_image("uint8", false);
+  big.pixel_type = "int32";
+  big.voxels.data[3] = 16777218.0f;
+  cvt::write_image(big, dir / "big.nrrd");
+  expect_input_error(read(dir / "big.nrrd"), dir / "big.nrrd", "2^24");
+  cvt::ReadOptions tiny;
+  tiny.max_bytes = 1000;
+  cvt::write_image(make_image("uint8", false), dir / "ok.inr");
+  expect_input_error([&] { cvt::read_image(dir / "ok.inr", tiny); }, dir / "ok.inr", "MB");
+  cvt::write_image(make_image("uint8", false), dir / "ok.mha");
+  expect_input_error([&] { cvt::read_image(dir / "ok.mha", tiny); }, dir / "ok.mha", "MB");
+
+  // Writing.
+  const std::string nowhere = dir / "no/such/folder/out.nii";
+  expect_input_error([&] { cvt::write_image(make_image("uint8", false), nowhere); }, nowhere,
+                     "does not exist");
+  const std::string wrong = dir / "out.jpg";
+  expect_input_error([&] { cvt::write_image(make_image("uint8", false), wrong); }, wrong);
+  Image overflow = make_image("uint8", false);
+  overflow.voxels.data[0] = 300;
+  expect_input_error([&] { cvt::write_image(overflow, dir / "o.nii"); }, dir / "o.nii", "uint8");
+  EXPECT_FALSE(fs::exists(dir / "o.nii"));
+}
