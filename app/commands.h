@@ -6,5 +6,7 @@
 namespace cvt::cli {
 
 void add_info_command(CLI::App& app);
+void add_mesh_command(CLI::App& app);
+void add_quality_command(CLI::App& app);
 
 }  // namespace cvt::cli

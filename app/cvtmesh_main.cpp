@@ -10,10 +10,15 @@ int main(int argc, char** argv) {
   CLI::App app{"cvtmesh: CVT-based Delaunay tetrahedral meshes from 3D medical images"};
   app.require_subcommand(1);
   cvt::cli::add_info_command(app);
+  cvt::cli::add_mesh_command(app);
+  cvt::cli::add_quality_command(app);
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
+  } catch (const cvt::Cancelled&) {
+    std::cerr << "cvtmesh: cancelled; nothing was written\n";
+    return 130;
   } catch (const cvt::InputError& e) {
     std::cerr << "cvtmesh: " << e.what() << "\n";
     return 1;

@@ -9,6 +9,7 @@
 #include <CGAL/Triangulation_vertex_base_with_info_3.h>
 
 #include "errors.h"
+#include "manifold_repair.h"
 
 namespace cvt {
 namespace {
@@ -168,6 +169,12 @@ MeshGenerationResult build_delaunay_mesh(const std::vector<Vec3>& surface,
     }
     kept.push_back(t);
   }
+
+  progress("manifold repair", 0.9);
+  std::vector<Vec3> points(surface);
+  points.insert(points.end(), interior.begin(), interior.end());
+  if (options.repair_manifold)
+    out.repair = repair_boundary_manifold(points, kept, &out.removed_by_repair);
 
   // Keep only referenced samples, in input order (B first, then I), for a deterministic mesh.
   std::vector<int> new_index(std::size_t(nb + ni), -1);

@@ -1,13 +1,15 @@
 // Stage 5 (paper III-F): a CRUST-like Delaunay mesh. Poles of the surface samples B come from
 // the Voronoi diagram of B; those outside the object (EP) join B ∪ I in a second Delaunay
 // triangulation, and every tet incident to a pole is deleted. Tets that still lie outside the
-// object (deep concavities) are removed by a second, documented rule: centroid outside.
+// object (deep concavities) are removed by a second, documented rule: centroid outside. A third
+// rule peels tets where the boundary pinches (manifold_repair.h), so it is a closed 2-manifold.
 #pragma once
 
 #include <cstddef>
 #include <functional>
 #include <vector>
 
+#include "manifold_repair.h"
 #include "progress.h"
 #include "tet_mesh.h"
 
@@ -18,6 +20,7 @@ using InsideFunction = std::function<bool(const Vec3& world)>;
 
 struct MeshGenerationOptions {
   bool remove_outside_tets = true;  // rule 2: drop remaining tets whose centroid is outside
+  bool repair_manifold = true;      // rule 3: peel tets until the boundary is a 2-manifold
 };
 
 struct MeshGenerationResult {
@@ -28,6 +31,8 @@ struct MeshGenerationResult {
   std::size_t delaunay_tets = 0;          // finite tets of Delaunay(B ∪ EP ∪ I)
   std::size_t removed_by_poles = 0;       // rule 1: incident to a pole
   std::size_t removed_by_centroid = 0;    // rule 2
+  ManifoldRepairReport repair;            // rule 3: peeling to a closed 2-manifold boundary
+  std::vector<std::array<Vec3, 4>> removed_by_repair;  // tets removed by rule 3, for the viewer
   std::size_t unused_samples = 0;         // samples of B ∪ I no kept tet references
   std::vector<int> vertex_source;         // for each mesh vertex: index into B, or |B| + index in I
 };

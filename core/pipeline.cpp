@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cmath>
 
 #include "errors.h"
 #include "memory.h"
@@ -11,7 +12,7 @@ namespace cvt {
 
 const char* stage_name(Stage stage) {
   static const char* names[] = {"preprocess", "surface sampling", "CVT sampling",
-                                "shallow points", "mesh generation"};
+                                "shallow points", "mesh generation", "evaluation"};
   return names[int(stage)];
 }
 
@@ -95,17 +96,25 @@ void Pipeline::invalidate_from(Stage s) {
     case Stage::cvt: lloyd_.reset(); [[fallthrough]];
     case Stage::shallow: shallow_.reset(); [[fallthrough]];
     case Stage::mesh: mesh_.reset(); [[fallthrough]];
+    case Stage::evaluate:
+      quality_.reset();
+      fidelity_.reset();
+      [[fallthrough]];
     case Stage::count: break;
   }
 }
 
 double Pipeline::default_interior_spacing_mm() const {
   if (!surface_ || surface_->voxels.empty()) return 0;
-  std::vector<double> spacing;
-  spacing.reserve(surface_->voxels.size());
-  for (std::int32_t v : surface_->voxels) spacing.push_back(parameters_.r * preprocess_->lfs_mm.data[v]);
-  std::nth_element(spacing.begin(), spacing.begin() + spacing.size() / 2, spacing.end());
-  return spacing[spacing.size() / 2];
+  // Samples crowd where lfs is small, so weight each one's spacing s = r·lfs by the surface
+  // area it covers (∝ s²): Σ s³ / Σ s². The interior then matches the bulk of the surface.
+  double s2 = 0, s3 = 0;
+  for (std::int32_t v : surface_->voxels) {
+    const double s = parameters_.r * preprocess_->lfs_mm.data[v];
+    s2 += s * s;
+    s3 += s * s * s;
+  }
+  return s3 / s2;
 }
 
 void Pipeline::start_lloyd() {
@@ -135,6 +144,7 @@ void Pipeline::run_stage(Stage s, const Progress& progress) {
           lloyd_->sites_world(), lloyd_->owners_of(preprocess_->boundary)));
       break;
     case Stage::mesh: {
+      // Inside: the smoothed indicator's 0.5 level (the same surface samples are projected on).
       const Volume<float>& indicator = preprocess_->indicator;
       auto inside = [&indicator](const Vec3& world) {
         const Vec3 idx = indicator.grid.world_to_index(world);
@@ -146,6 +156,12 @@ void Pipeline::run_stage(Stage s, const Progress& progress) {
           build_delaunay_mesh(surface_->world, shallow_->kept_world, inside, {}, progress));
       break;
     }
+    case Stage::evaluate:
+      progress("quality", 0.0);
+      quality_ = std::make_unique<QualityReport>(compute_quality(mesh_->mesh));
+      progress("fidelity", 0.5);
+      fidelity_ = std::make_unique<FidelityReport>(compute_fidelity(mesh_->mesh, preprocess_->object));
+      break;
     case Stage::count: break;
   }
   done_[int(s)] = true;

@@ -11,17 +11,19 @@
 #include <vector>
 
 #include "cvt_sampling.h"
+#include "fidelity.h"
 #include "image.h"
 #include "mesh_generation.h"
 #include "parameters.h"
 #include "preprocess.h"
 #include "progress.h"
+#include "quality.h"
 #include "shallow_points.h"
 #include "surface_sampling.h"
 
 namespace cvt {
 
-enum class Stage { preprocess, surface, cvt, shallow, mesh, count };
+enum class Stage { preprocess, surface, cvt, shallow, mesh, evaluate, count };
 inline constexpr int kStageCount = int(Stage::count);
 const char* stage_name(Stage stage);
 
@@ -51,7 +53,7 @@ class Pipeline {
   bool is_stale(Stage s) const { return !done_[int(s)]; }
   // Runs every stale stage up to and including `last`.
   void run_through(Stage last, const Progress& progress = {});
-  void run_all(const Progress& progress = {}) { run_through(Stage::mesh, progress); }
+  void run_all(const Progress& progress = {}) { run_through(Stage::evaluate, progress); }
 
   // Lloyd stepping (stage 3): runs stages 1–2 if stale, starts the stepper if needed, then k
   // iterations (or to convergence with k < 0); later stages become stale. Returns iterations.
@@ -63,7 +65,9 @@ class Pipeline {
   const LloydStepper* lloyd() const { return lloyd_.get(); }
   const ShallowResult* shallow() const { return shallow_.get(); }
   const MeshGenerationResult* mesh() const { return mesh_.get(); }
-  // Default interior spacing: the median r·lfs over the surface samples (their spacing).
+  const QualityReport* quality() const { return quality_.get(); }
+  const FidelityReport* fidelity() const { return fidelity_.get(); }
+  // Default interior spacing: the area-weighted mean spacing r·lfs of the surface samples.
   double default_interior_spacing_mm() const;
 
   const std::vector<StageRecord>& records() const { return records_; }
@@ -81,6 +85,8 @@ class Pipeline {
   std::unique_ptr<LloydStepper> lloyd_;
   std::unique_ptr<ShallowResult> shallow_;
   std::unique_ptr<MeshGenerationResult> mesh_;
+  std::unique_ptr<QualityReport> quality_;
+  std::unique_ptr<FidelityReport> fidelity_;
   std::vector<StageRecord> records_;
 };
 

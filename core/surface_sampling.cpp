@@ -70,18 +70,23 @@ class PointGrid {
 bool project_to_level_set(const Volume<float>& field, float level, Vec3& index,
                           double max_move_voxels) {
   const Grid& g = field.grid;
+  const double max_spacing = std::max({g.spacing.x, g.spacing.y, g.spacing.z});
+  const double max_move_mm = max_move_voxels * max_spacing;
+  const double max_step_mm = 0.5 * std::min({g.spacing.x, g.spacing.y, g.spacing.z});
   Vec3 x = index;
-  for (int iteration = 0; iteration < 8; ++iteration) {
+  for (int iteration = 0; iteration < 30; ++iteration) {
     const double f = double(sample_trilinear(field, x)) - level;
+    if (std::abs(f) < 1e-4) break;
     const Vec3 grad = gradient_local(field, x);  // per mm
     const double g2 = squared_norm(grad);
     if (g2 < 1e-12) return false;
-    // Newton step in mm along the gradient, converted back to index units.
-    const Vec3 step_mm = grad * (-f / g2);
+    // Newton step in mm along the gradient, damped to half a voxel (a far-off start would
+    // otherwise overshoot), converted back to index units.
+    Vec3 step_mm = grad * (-f / g2);
+    const double len = norm(step_mm);
+    if (len > max_step_mm) step_mm = step_mm * (max_step_mm / len);
     for (int a = 0; a < 3; ++a) x[a] += step_mm[a] / g.spacing[a];
-    Vec3 moved = x - index;
-    if (norm(moved) > max_move_voxels) return false;
-    if (std::abs(f) < 1e-4 && norm(step_mm) < 1e-4 * g.spacing.x) break;
+    if (norm(g.index_to_local(x - index)) > max_move_mm) return false;
   }
   if (std::abs(double(sample_trilinear(field, x)) - level) > 1e-3) return false;
   index = x;

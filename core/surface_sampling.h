@@ -18,7 +18,8 @@ struct SurfaceSamplingOptions {
   double sigma_mm = 2.0;            // σ of eq. (3), mm; scales energies (the order only depends
                                     // on h² − r² lfs², so σ never changes which voxel is next)
   bool project_to_surface = true;   // move samples onto the 0.5 level of the smoothed indicator
-  double max_projection_voxels = 1.5;  // a projection moving farther keeps the voxel centre
+  double max_projection_voxels = 1.5;  // in largest voxel spacings; a projection moving
+                                       // farther keeps the voxel centre
 };
 
 struct SurfaceSamples {
@@ -34,7 +35,7 @@ SurfaceSamples sample_surface(const PreprocessResult& pre, const SurfaceSampling
 
 // Moves a point (continuous index) onto the `level` set of `field` by Newton steps along the
 // physical gradient; returns false (and leaves `index`) when it does not converge within
-// max_move_voxels.
+// max_move_voxels × the largest voxel spacing.
 bool project_to_level_set(const Volume<float>& field, float level, Vec3& index,
                           double max_move_voxels);
 

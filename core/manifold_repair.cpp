@@ -1,0 +1,187 @@
+#include "manifold_repair.h"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+#include <numeric>
+
+namespace cvt {
+namespace {
+
+using Edge = std::pair<std::int32_t, std::int32_t>;
+Edge edge(std::int32_t a, std::int32_t b) { return a < b ? Edge{a, b} : Edge{b, a}; }
+
+// Vertex → incident tets (CSR), over the tets still alive.
+struct Star {
+  std::vector<std::size_t> start;
+  std::vector<std::int32_t> tets;
+  Star(std::size_t vertex_count, const std::vector<Tet>& all) : start(vertex_count + 1, 0) {
+    for (const Tet& t : all)
+      for (std::int32_t v : t) ++start[v + 1];
+    std::partial_sum(start.begin(), start.end(), start.begin());
+    tets.resize(start.back());
+    std::vector<std::size_t> fill(start.begin(), start.end() - 1);
+    for (std::size_t i = 0; i < all.size(); ++i)
+      for (std::int32_t v : all[i]) tets[fill[v]++] = std::int32_t(i);
+  }
+};
+
+int shared_vertices(const Tet& a, const Tet& b) {
+  int n = 0;
+  for (std::int32_t x : a) n += std::count(b.begin(), b.end(), x);
+  return n;
+}
+
+// Splits `group` (tet indices) into classes connected through shared faces (3 shared vertices),
+// returns the class id of each member; classes are numbered from 0.
+std::vector<int> fan_classes(const std::vector<Tet>& tets, const std::vector<std::int32_t>& group,
+                             int& count) {
+  std::vector<int> cls(group.size(), -1);
+  count = 0;
+  for (std::size_t s = 0; s < group.size(); ++s) {
+    if (cls[s] >= 0) continue;
+    std::vector<std::size_t> stack{s};
+    cls[s] = count;
+    while (!stack.empty()) {
+      const std::size_t a = stack.back();
+      stack.pop_back();
+      for (std::size_t b = 0; b < group.size(); ++b)
+        if (cls[b] < 0 && shared_vertices(tets[group[a]], tets[group[b]]) == 3) {
+          cls[b] = count;
+          stack.push_back(b);
+        }
+    }
+    ++count;
+  }
+  return cls;
+}
+
+// Marks for removal every tet of `group` outside its largest fan; returns how many.
+std::size_t keep_largest_fan(const std::vector<Tet>& tets, const std::vector<std::int32_t>& group,
+                             std::vector<char>& remove) {
+  int count = 0;
+  const std::vector<int> cls = fan_classes(tets, group, count);
+  if (count < 2) return 0;
+  std::vector<int> size(count, 0);
+  for (int c : cls) ++size[c];
+  const int keep = int(std::max_element(size.begin(), size.end()) - size.begin());  // first max
+  std::size_t removed = 0;
+  for (std::size_t i = 0; i < group.size(); ++i)
+    if (cls[i] != keep && !remove[group[i]]) {
+      remove[group[i]] = 1;
+      ++removed;
+    }
+  return removed;
+}
+
+}  // namespace
+
+ManifoldRepairReport repair_boundary_manifold(const std::vector<Vec3>& points,
+                                              std::vector<Tet>& tets,
+                                              std::vector<std::array<Vec3, 4>>* removed_out) {
+  ManifoldRepairReport report;
+  for (;; ++report.passes) {
+    TetMesh view{points, tets, {}};
+    const std::vector<Triangle> boundary = boundary_triangles(view);
+    std::vector<char> remove(tets.size(), 0);
+    const Star star(points.size(), tets);
+
+    // Boundary faces per edge, and the boundary link of every vertex.
+    std::map<Edge, int> edge_use;
+    std::vector<std::vector<Edge>> link(points.size());
+    for (const Triangle& f : boundary)
+      for (int k = 0; k < 3; ++k) {
+        ++edge_use[edge(f[k], f[(k + 1) % 3])];
+        link[f[k]].push_back(edge(f[(k + 1) % 3], f[(k + 2) % 3]));
+      }
+
+    // 1. Flat tets with a face on the boundary.
+    std::size_t changed = 0;
+    for (const Triangle& f : boundary)
+      for (std::int32_t t : std::vector<std::int32_t>(star.tets.begin() + star.start[f[0]],
+                                                      star.tets.begin() + star.start[f[0] + 1])) {
+        if (remove[t] || shared_vertices(tets[t], {f[0], f[1], f[2], -1}) != 3) continue;
+        const double v = std::abs(signed_volume(view, tets[t]));
+        double longest = 0;
+        for (int a = 0; a < 4; ++a)
+          for (int b = a + 1; b < 4; ++b)
+            longest = std::max(longest, distance(points[tets[t][a]], points[tets[t][b]]));
+        if (v <= 1e-9 * longest * longest * longest) {
+          remove[t] = 1;
+          ++report.flat_removed;
+          ++changed;
+        }
+      }
+    // 2. Edges with more than two boundary faces: tets around them form several fans.
+    for (const auto& [e, use] : edge_use) {
+      if (use == 2) continue;
+      std::vector<std::int32_t> group;
+      for (std::size_t s = star.start[e.first]; s < star.start[e.first + 1]; ++s) {
+        const Tet& t = tets[star.tets[s]];
+        if (std::find(t.begin(), t.end(), e.second) != t.end()) group.push_back(star.tets[s]);
+      }
+      const std::size_t n = keep_largest_fan(tets, group, remove);
+      report.edge_fans_removed += n;
+      changed += n;
+    }
+    // 3. Vertices whose boundary link is not one cycle: the star has several fans.
+    for (std::size_t v = 0; v < points.size(); ++v) {
+      const std::vector<Edge>& l = link[v];
+      if (l.empty()) continue;
+      // One cycle ⇔ walking the link from one edge visits every edge.
+      std::map<std::int32_t, std::vector<std::int32_t>> next;
+      for (const Edge& e : l) {
+        next[e.first].push_back(e.second);
+        next[e.second].push_back(e.first);
+      }
+      bool one_cycle = true;
+      for (const auto& [x, ns] : next) one_cycle &= ns.size() == 2;
+      if (one_cycle) {
+        std::size_t visited = 1;
+        std::int32_t prev = l[0].first, cur = l[0].second;
+        while (cur != l[0].first && visited <= l.size()) {
+          const auto& ns = next[cur];
+          const std::int32_t nxt = ns[0] == prev ? ns[1] : ns[0];
+          prev = cur;
+          cur = nxt;
+          ++visited;
+        }
+        one_cycle = visited == l.size();
+      }
+      if (one_cycle) continue;
+      const std::vector<std::int32_t> group(star.tets.begin() + star.start[v],
+                                            star.tets.begin() + star.start[v + 1]);
+      std::size_t n = keep_largest_fan(tets, group, remove);
+      if (n == 0) {
+        // One fan of tets, yet the empty space around v has several parts (two concavities
+        // touch at v): removing v's star merges them.
+        for (std::int32_t t : group)
+          if (!remove[t]) {
+            remove[t] = 1;
+            ++n;
+          }
+      }
+      report.vertex_fans_removed += n;
+      changed += n;
+    }
+    if (!changed) {
+      report.manifold = true;
+      for (const auto& [e, use] : edge_use) report.manifold &= use == 2;
+      return report;
+    }
+    std::vector<Tet> kept;
+    kept.reserve(tets.size());
+    for (std::size_t t = 0; t < tets.size(); ++t) {
+      if (!remove[t]) {
+        kept.push_back(tets[t]);
+      } else if (removed_out) {
+        removed_out->push_back({points[tets[t][0]], points[tets[t][1]], points[tets[t][2]],
+                                points[tets[t][3]]});
+      }
+    }
+    tets.swap(kept);
+    if (report.passes > 50) return report;  // does not happen in practice; report says so
+  }
+}
+
+}  // namespace cvt

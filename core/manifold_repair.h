@@ -1,0 +1,29 @@
+// Makes the boundary of a tet set a closed 2-manifold by peeling tets: flat tets on the
+// boundary go, and where tets meet only along an edge or at a vertex (two fans), all but the
+// largest fan go; where the tets around a vertex form one fan but the boundary still touches
+// itself there, the vertex's whole star goes. Pole removal leaves such pinches in deep concavities and thin parts; removing
+// (rather than adding) tets never places a tet outside the object.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <vector>
+
+#include "tet_mesh.h"
+
+namespace cvt {
+
+struct ManifoldRepairReport {
+  std::size_t flat_removed = 0;         // boundary tets with (near) zero volume
+  std::size_t edge_fans_removed = 0;    // tets removed at non-manifold edges
+  std::size_t vertex_fans_removed = 0;  // tets removed at non-manifold vertices
+  int passes = 0;
+  bool manifold = false;                // the boundary is a closed 2-manifold at the end
+};
+
+// tets index `points`; removed tets are appended to `removed` (as corner positions) when given.
+ManifoldRepairReport repair_boundary_manifold(const std::vector<Vec3>& points,
+                                              std::vector<Tet>& tets,
+                                              std::vector<std::array<Vec3, 4>>* removed = nullptr);
+
+}  // namespace cvt

@@ -1,0 +1,305 @@
+// Stages 3 and 4 on analytic phantoms: Lloyd iterations on the voxel grid (exact assignment,
+// monotone energy, determinism, convergence, cancellation) and shallow-point elimination.
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <limits>
+
+#include "cvt_sampling.h"
+#include "errors.h"
+#include "phantoms.h"
+#include "preprocess.h"
+#include "shallow_points.h"
+
+using namespace cvt;
+
+namespace {
+
+PreprocessResult torus_object() {
+  const Phantom p = torus_phantom({5, -3, 2}, 10.0, 4.0);
+  const Grid g = grid_around(p, {0.35, 0.4, 0.5}, rotation_matrix({1, -2, 1}, 0.6));
+  return preprocess(rasterize(p, g), PreprocessOptions{});
+}
+
+PreprocessResult small_sphere_object() {
+  const Phantom p = sphere_phantom({-2, 1, 7}, 6.0);
+  const Grid g = grid_around(p, {0.4, 0.5, 0.7}, rotation_matrix({0, 1, 1}, 1.1));
+  return preprocess(rasterize(p, g), PreprocessOptions{});
+}
+
+CvtOptions points(std::int64_t n, std::uint64_t seed = 7) {
+  CvtOptions o;
+  o.interior_points = n;
+  o.seed = seed;
+  return o;
+}
+
+Vec3 local_voxel(const Grid& g, std::size_t v) {
+  const auto p = g.ijk(v);
+  return g.index_to_local({double(p[0]), double(p[1]), double(p[2])});
+}
+
+// Squared distance from voxel v to its nearest site, by brute force.
+double nearest_d2(const Grid& g, std::size_t v, const std::vector<Vec3>& sites) {
+  double best = std::numeric_limits<double>::infinity();
+  for (const Vec3& s : sites) best = std::min(best, squared_distance(local_voxel(g, v), s));
+  return best;
+}
+
+// Nearest-neighbour distances among the sites (brute force).
+std::vector<double> nn_distances(const std::vector<Vec3>& sites) {
+  std::vector<double> d(sites.size(), std::numeric_limits<double>::infinity());
+  for (std::size_t a = 0; a < sites.size(); ++a)
+    for (std::size_t b = 0; b < sites.size(); ++b)
+      if (a != b) d[a] = std::min(d[a], distance(sites[a], sites[b]));
+  return d;
+}
+
+double coefficient_of_variation(const std::vector<double>& x) {
+  double mean = 0, var = 0;
+  for (double v : x) mean += v;
+  mean /= double(x.size());
+  for (double v : x) var += (v - mean) * (v - mean);
+  return std::sqrt(var / double(x.size())) / mean;
+}
+
+}  // namespace
+
+TEST(CvtOptions, SiteCountFromSpacingAndDensityFormula) {
+  const PreprocessResult pre = small_sphere_object();
+  CvtOptions o;
+  EXPECT_THROW(resolve_cvt_options(o, pre.object), InputError);
+  o.interior_spacing_mm = 2.0;
+  const CvtResolved r = resolve_cvt_options(o, pre.object);
+  EXPECT_NEAR(double(r.sites), r.object_volume_mm3 / (0.7698 * 8.0), 1.0);
+  EXPECT_DOUBLE_EQ(r.sigma_density_mm, 2.0);  // auto σ_d = spacing
+  o.interior_points = 40;  // wins over the spacing
+  const CvtResolved p = resolve_cvt_options(o, pre.object);
+  EXPECT_EQ(p.sites, 40);
+  EXPECT_NEAR(40 * kBccVolumePerSite * std::pow(p.spacing_mm, 3), p.object_volume_mm3, 1e-6);
+  EXPECT_NEAR(density_from_lfs(3.0, 3.0), 1.0 - std::exp(-0.5), 1e-15);
+}
+
+TEST(LloydStepper, AssignmentIsExactNearestAndEnergyMatchesDefinition) {
+  const PreprocessResult pre = small_sphere_object();
+  LloydStepper st(pre, points(150));
+  st.run(2);
+  const Grid& g = pre.object.grid;
+  const std::vector<Vec3> sites = st.sites_local();
+  Volume<std::int32_t> labels;
+  st.compute_labels(labels);
+  // Brute force: every object voxel's owner is a nearest site; the energy of the next step is
+  // Σ ρ_q · d² with ρ quantised exactly as documented.
+  const Volume<float> rho = compute_density(pre.object, pre.lfs_mm, st.resolved().sigma_density_mm);
+  double energy = 0;
+  std::vector<std::int32_t> object_voxels;
+  for (std::size_t v = 0; v < g.voxel_count(); ++v) {
+    if (!pre.object.data[v]) {
+      ASSERT_EQ(labels.data[v], -1);
+      continue;
+    }
+    object_voxels.push_back(std::int32_t(v));
+    ASSERT_GE(labels.data[v], 0);
+    const double d2 = squared_distance(local_voxel(g, v), sites[labels.data[v]]);
+    ASSERT_LE(d2, nearest_d2(g, v, sites) + 1e-9) << "voxel " << v;
+    energy += std::lround(double(rho.data[v]) * (1 << kWeightBits)) * std::pow(2.0, -kWeightBits) * d2;
+  }
+  // The point queries agree with the brick pass, ties included.
+  const std::vector<std::int32_t> owners = st.owners_of(object_voxels);
+  for (std::size_t q = 0; q < owners.size(); ++q)
+    ASSERT_EQ(owners[q], labels.data[object_voxels[q]]);
+  const int k = g.dims[2] / 2;
+  const std::vector<std::int32_t> slice = st.slice_labels(2, k);
+  ASSERT_EQ(slice.size(), std::size_t(g.dims[0]) * g.dims[1]);
+  for (int j = 0; j < g.dims[1]; ++j)
+    for (int i = 0; i < g.dims[0]; ++i) ASSERT_EQ(slice[j * g.dims[0] + i], labels.at(i, j, k));
+  const IterationStats s = st.step();
+  EXPECT_NEAR(s.energy, energy, 1e-9 * energy);
+}
+
+TEST(LloydStepper, EnergyNeverIncreasesAndDisplacementShrinks) {
+  const PreprocessResult pre = torus_object();
+  CvtOptions o = points(400);
+  o.epsilon_mm = 1e-300;  // no early stop
+  LloydStepper st(pre, o);
+  st.run(20);
+  const auto& h = st.history();
+  ASSERT_EQ(h.size(), 20u);
+  for (std::size_t t = 1; t < h.size(); ++t)
+    EXPECT_LE(h[t].energy, h[t - 1].energy * (1 + 1e-12)) << "iteration " << t;
+  EXPECT_LT(h.back().energy, 0.8 * h.front().energy);
+  EXPECT_LT(h.back().displacement_sum_mm, 0.3 * h.front().displacement_sum_mm);
+  for (const IterationStats& s : h) {
+    EXPECT_NEAR(s.displacement_mean_mm, s.displacement_sum_mm / 400, 1e-12);
+    EXPECT_LE(s.displacement_max_mm, s.displacement_sum_mm);
+  }
+  ASSERT_EQ(st.sites_world().size(), 400u);
+  // World and local frames describe the same points.
+  const Grid& g = st.grid();
+  for (std::size_t i = 0; i < 400; ++i) {
+    const Vec3 back = g.index_to_local(g.world_to_index(st.sites_world()[i]));
+    EXPECT_NEAR(distance(back, st.sites_local()[i]), 0, 1e-9);
+  }
+}
+
+TEST(LloydStepper, UniformDensityGivesEvenSpacing) {
+  // A 24 mm cube (slab as thick as wide) with ρ ≡ 1 and anisotropic voxels.
+  const Phantom p = slab_phantom({1, 2, 3}, 24.0, 12.0);
+  const Grid g = grid_around(p, {0.5, 0.6, 0.7}, rotation_matrix({1, 1, 0}, 0.3));
+  const Image img = rasterize(p, g);
+  Mask object(g, 0);
+  for (std::size_t v = 0; v < g.voxel_count(); ++v) object.data[v] = img.voxels.data[v] > 0;
+  const Volume<float> one(g, 1.0f);
+  CvtOptions o = points(300);
+  o.epsilon_mm = 1e-300;  // run all 150 iterations (or until an exact fixed point)
+  LloydStepper st(object, one, o);
+  st.initialize();
+  const double cv_random = coefficient_of_variation(nn_distances(st.sites_local()));
+  st.run(150);
+  const double cv_cvt = coefficient_of_variation(nn_distances(st.sites_local()));
+  // Measured: random ≈ 0.5 (Poisson points), after 150 iterations ≈ 0.06 (seeds 1–5 give
+  // 0.05–0.08; the sites near the faces are a little closer than those inside). 0.12 leaves room
+  // for other seeds while still failing on anything short of a good CVT.
+  EXPECT_GT(cv_random, 0.35);
+  EXPECT_LT(cv_cvt, 0.12) << "random " << cv_random;
+}
+
+TEST(LloydStepper, DeterministicForSeedAndThreadCount) {
+  const PreprocessResult pre = torus_object();
+  auto run = [&](std::uint64_t seed, int threads) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    LloydStepper st(pre, points(300, seed));
+    st.run(5);
+    return st.sites_world();
+  };
+  const auto a = run(3, 2);
+  EXPECT_EQ(a, run(3, 2));
+  EXPECT_EQ(a, run(3, 1));
+  EXPECT_NE(a, run(4, 2));
+}
+
+TEST(LloydStepper, StopsWhenDisplacementBelowEpsilon) {
+  const PreprocessResult pre = torus_object();
+  CvtOptions o = points(200);
+  o.epsilon_mm = 2.0;  // Σ over 200 sites: mean displacement 0.01 mm
+  o.max_iterations = 500;
+  LloydStepper st(pre, o);
+  const int n = st.run_to_convergence();
+  const auto& h = st.history();
+  ASSERT_EQ(int(h.size()), n);
+  EXPECT_TRUE(st.converged());
+  EXPECT_LT(n, 500);
+  EXPECT_LT(h.back().displacement_sum_mm, 2.0);
+  for (std::size_t t = 0; t + 1 < h.size(); ++t) EXPECT_GE(h[t].displacement_sum_mm, 2.0);
+  // Another request to converge does nothing; max_iterations caps a run that cannot converge.
+  EXPECT_EQ(st.run_to_convergence(), 0);
+  o.epsilon_mm = 1e-300;
+  o.max_iterations = 7;
+  LloydStepper capped(pre, o);
+  EXPECT_EQ(capped.run_to_convergence(), 7);
+  EXPECT_FALSE(capped.converged());
+}
+
+TEST(LloydStepper, CancellationThrows) {
+  const PreprocessResult pre = torus_object();
+  LloydStepper st(pre, points(200));
+  std::atomic<bool> cancel{false};
+  Progress progress;
+  progress.cancel = &cancel;
+  int reports = 0;
+  progress.report = [&](const std::string&, double) {
+    if (++reports == 3) cancel = true;
+  };
+  EXPECT_THROW(st.run(10, progress), Cancelled);
+  EXPECT_EQ(st.history().size(), 2u);  // the third iteration never moved the sites
+  EXPECT_THROW(st.run_to_convergence(progress), Cancelled);
+  cancel = false;
+  EXPECT_EQ(st.run(1, progress), 1);
+}
+
+TEST(ShallowPoints, RemovesExactlyTheSitesWhoseRegionTouchesF) {
+  const PreprocessResult pre = torus_object();
+  LloydStepper st(pre, points(300));
+  st.run(10);
+  const Grid& g = pre.object.grid;
+  const ShallowResult r = remove_shallow_points(g, st.sites_world(), pre.boundary);
+  ASSERT_EQ(r.kept_world.size() + r.removed_world.size(), 300u);
+  ASSERT_GT(r.removed_world.size(), 0u);
+  ASSERT_GT(r.kept_world.size(), 0u);
+  // Brute force: a site touches F when it is a nearest site (up to ties) of some F voxel.
+  const std::vector<Vec3>& sites = st.sites_local();
+  std::vector<char> nearest_of_f(sites.size(), 0), strictly_nearest_of_f(sites.size(), 0);
+  for (std::int32_t f : pre.boundary) {
+    const double best = nearest_d2(g, std::size_t(f), sites);
+    int within = 0, which = -1;
+    for (std::size_t s = 0; s < sites.size(); ++s)
+      if (squared_distance(local_voxel(g, std::size_t(f)), sites[s]) <= best + 1e-9)
+        nearest_of_f[s] = 1, ++within, which = int(s);
+    if (within == 1) strictly_nearest_of_f[which] = 1;
+  }
+  for (std::int32_t s : r.removed_index) EXPECT_TRUE(nearest_of_f[s]) << "site " << s;
+  for (std::int32_t s : r.kept_index) EXPECT_FALSE(strictly_nearest_of_f[s]) << "site " << s;
+  for (std::size_t q = 0; q < r.kept_index.size(); ++q)
+    EXPECT_EQ(r.kept_world[q], st.sites_world()[r.kept_index[q]]);
+  // The stepper's owners give the same split.
+  const ShallowResult r2 = remove_shallow_points(st.sites_world(), st.owners_of(pre.boundary));
+  EXPECT_EQ(r2.removed_index, r.removed_index);
+  EXPECT_THROW(remove_shallow_points(st.sites_world(), {300}), InputError);
+}
+
+TEST(Explore, DISABLED_CvCurve) {
+  const Phantom p = slab_phantom({1, 2, 3}, 24.0, 12.0);
+  const Grid g = grid_around(p, {0.5, 0.6, 0.7}, rotation_matrix({1, 1, 0}, 0.3));
+  const Image img = rasterize(p, g);
+  Mask object(g, 0);
+  for (std::size_t v = 0; v < g.voxel_count(); ++v) object.data[v] = img.voxels.data[v] > 0;
+  const Volume<float> one(g, 1.0f);
+  for (std::uint64_t seed = 1; seed <= 5; ++seed) {
+    CvtOptions o = points(300, seed);
+    o.epsilon_mm = 1e-300;
+    LloydStepper st(object, one, o);
+    st.initialize();
+    std::printf("seed %d random %.3f", int(seed), coefficient_of_variation(nn_distances(st.sites_local())));
+    for (int k : {5, 10, 20, 40, 80, 160, 320}) {
+      st.run(k - int(st.history().size()));
+      const auto& h = st.history().back();
+      std::printf(" | %d: cv %.3f mean %.4f", k, coefficient_of_variation(nn_distances(st.sites_local())), h.displacement_mean_mm / st.resolved().spacing_mm);
+    }
+    std::printf("\n");
+  }
+}
+
+#include <sys/resource.h>
+#include <chrono>
+#include "image_io.h"
+TEST(Explore, DISABLED_Liver) {
+  static const PreprocessResult pre = preprocess(read_image(CVTMESH_SOURCE_DIR "/data/liver.inr.gz"), {});
+  const char* env = std::getenv("SITES");
+  CvtOptions o = points(env ? std::atoll(env) : 50000);
+  o.epsilon_mm = 1e-300;
+  LloydStepper st(pre, o);
+  st.run(3);
+  auto cpu = [] { rusage u; getrusage(RUSAGE_SELF, &u); return u.ru_utime.tv_sec + 1e-6 * u.ru_utime.tv_usec; };
+  for (int threads : {1, 2}) {
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    double best = 1e9;
+    for (int i = 0; i < 12; ++i) best = std::min(best, st.step().wall_s);
+    std::printf("threads %d: min %.1f ms/iter energy %.6g\n", threads, 1e3 * best, st.history().back().energy);
+  }
+}
+TEST(Explore, DISABLED_LiverConvergence) {
+  static const PreprocessResult pre = preprocess(read_image(CVTMESH_SOURCE_DIR "/data/liver.inr.gz"), {});
+  CvtOptions o = points(50000);
+  o.max_iterations = 200;
+  LloydStepper st(pre, o);
+  std::printf("eps %.1f spacing %.3f sigma %.3f\n", st.resolved().epsilon_mm, st.resolved().spacing_mm, st.resolved().sigma_density_mm);
+  for (int i = 0; i < 200 && !st.converged(); ++i) {
+    const auto s = st.step();
+    if (i % 5 == 0 || st.converged()) std::printf("%d: E %.6g mean %.4f max %.3f empty %ld %.1f ms\n", i, s.energy, s.displacement_mean_mm / st.resolved().spacing_mm, s.displacement_max_mm, long(s.empty_regions), 1e3 * s.wall_s);
+  }
+  const ShallowResult r = remove_shallow_points(st.grid(), st.sites_world(), pre.boundary);
+  std::printf("kept %zu removed %zu boundary %zu\n", r.kept_world.size(), r.removed_world.size(), pre.boundary.size());
+}

@@ -1,0 +1,223 @@
+#include <gtest/gtest.h>
+#include <tbb/global_control.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <random>
+#include <vector>
+
+#include "distance_transform.h"
+#include "errors.h"
+
+using cvt::FeatureTransform;
+using cvt::Grid;
+using cvt::Mask;
+using cvt::Vec3;
+
+namespace {
+
+Mask random_mask(const std::array<int, 3>& dims, const Vec3& spacing, double density,
+                 unsigned seed) {
+  Grid g;
+  g.dims = dims;
+  g.spacing = spacing;
+  g.origin = {-3.5, 12.0, 40.25};  // irrelevant to distances, but not trivial
+  Mask m(g);
+  std::mt19937 rng(seed);
+  std::bernoulli_distribution feature(density);
+  for (auto& v : m.data) v = feature(rng) ? 1 : 0;
+  return m;
+}
+
+Vec3 index_of(const Grid& g, std::size_t v) {
+  const auto ijk = g.ijk(v);
+  return {double(ijk[0]), double(ijk[1]), double(ijk[2])};
+}
+
+// Squared distance (mm²) between two voxels, in double.
+double squared_distance(const Grid& g, std::size_t a, std::size_t b) {
+  const auto p = g.ijk(a), q = g.ijk(b);
+  const double dx = (p[0] - q[0]) * g.spacing.x, dy = (p[1] - q[1]) * g.spacing.y,
+               dz = (p[2] - q[2]) * g.spacing.z;
+  return dx * dx + dy * dy + dz * dz;
+}
+
+// Float results carry a few roundings of the stored intermediate values.
+double tolerance(double expected) {
+  return 2e-6 * expected + 1e-9;
+}
+
+// Checks every `check_every`-th voxel against the O(N·F) minimum over all features.
+void expect_matches_brute_force(const Mask& m, std::size_t check_every = 1) {
+  const Grid& g = m.grid;
+  std::vector<Vec3> feature_mm;  // feature positions in the local frame, for a fast inner loop
+  for (std::size_t v = 0; v < m.size(); ++v)
+    if (m.data[v]) feature_mm.push_back(g.index_to_local(index_of(g, v)));
+
+  const FeatureTransform ft = cvt::compute_feature_transform(m);
+  const FeatureTransform ft_no_nearest = cvt::compute_feature_transform(m, false);
+  ASSERT_EQ(ft.squared_distance_mm2.size(), m.size());
+  ASSERT_EQ(ft.nearest.size(), m.size());
+  ASSERT_TRUE(ft_no_nearest.nearest.data.empty());
+  // Skipping the feature volume changes no distance, not even by a rounding.
+  ASSERT_EQ(std::memcmp(ft.squared_distance_mm2.data.data(),
+                        ft_no_nearest.squared_distance_mm2.data.data(), m.size() * sizeof(float)),
+            0);
+
+  int failures = 0;
+  for (std::size_t v = 0; v < m.size() && failures < 10; v += check_every) {
+    const float got = ft.squared_distance_mm2.data[v];
+    const std::int32_t nearest = ft.nearest.data[v];
+    if (feature_mm.empty()) {
+      failures += !(std::isinf(got) && nearest == -1);
+      EXPECT_TRUE(std::isinf(got)) << "voxel " << v;
+      EXPECT_EQ(nearest, -1) << "voxel " << v;
+      continue;
+    }
+    const Vec3 p = g.index_to_local(index_of(g, v));
+    double expected = std::numeric_limits<double>::infinity();
+    for (const Vec3& f : feature_mm) {
+      const double dx = p.x - f.x, dy = p.y - f.y, dz = p.z - f.z;
+      const double d2 = dx * dx + dy * dy + dz * dz;
+      expected = d2 < expected ? d2 : expected;
+    }
+    const bool distance_ok = std::abs(got - expected) <= tolerance(expected);
+    const bool nearest_ok =
+        nearest >= 0 && std::size_t(nearest) < m.size() && m.data[nearest] &&
+        std::abs(squared_distance(g, v, nearest) - expected) <= tolerance(expected);
+    failures += !(distance_ok && nearest_ok);
+    EXPECT_TRUE(distance_ok) << "voxel " << v << ": got " << got << ", expected " << expected;
+    EXPECT_TRUE(nearest_ok) << "voxel " << v << ": nearest " << nearest << " is not a nearest "
+                            << "feature (expected squared distance " << expected << ")";
+  }
+}
+
+struct Case {
+  std::array<int, 3> dims;
+  double density;
+};
+
+const Case kCases[] = {
+    {{17, 13, 9}, 0.01},    {{17, 13, 9}, 0.1},    {{17, 13, 9}, 0.5},   {{17, 13, 9}, 0.97},
+    {{1, 1, 1}, 1.0},       {{1, 20, 7}, 0.05},    {{23, 1, 5}, 0.05},   {{9, 11, 1}, 0.05},
+    {{31, 1, 1}, 0.1},      {{1, 1, 25}, 0.1},     {{1, 1, 25}, 0.0},    {{6, 7, 8}, 0.3},
+    {{70, 41, 19}, 0.0005}, {{37, 66, 33}, 0.001}, {{3, 35, 70}, 0.002},
+};
+
+const Vec3 kSpacings[] = {{1, 1, 1}, {0.617, 0.617, 1.333}, {2.5, 0.3, 1.1}};
+
+TEST(DistanceTransform, MatchesBruteForce) {
+  unsigned seed = 1;
+  for (const Vec3& spacing : kSpacings)
+    for (const Case& c : kCases) {
+      SCOPED_TRACE(::testing::Message() << "dims " << c.dims[0] << "×" << c.dims[1] << "×"
+                                        << c.dims[2] << ", density " << c.density << ", spacing "
+                                        << spacing.x << "," << spacing.y << "," << spacing.z);
+      expect_matches_brute_force(random_mask(c.dims, spacing, c.density, seed++));
+    }
+}
+
+TEST(DistanceTransform, LargeShapeSampled) {
+  // Features outside an off-centre ellipsoid, plus a few inside: long runs of features and long
+  // feature-free segments in every direction, over several tiles of lines.
+  Grid g;
+  g.dims = {75, 53, 41};
+  g.spacing = {0.617, 0.617, 1.333};
+  Mask m(g);
+  for (int k = 0; k < g.dims[2]; ++k)
+    for (int j = 0; j < g.dims[1]; ++j)
+      for (int i = 0; i < g.dims[0]; ++i) {
+        const double x = (i - 40.0) / 33, y = (j - 25.0) / 24, z = (k - 19.0) / 18;
+        m.at(i, j, k) = x * x + y * y + z * z > 1.0;
+      }
+  m.at(40, 25, 19) = m.at(30, 20, 10) = m.at(55, 30, 25) = 1;
+  expect_matches_brute_force(m, 127);
+}
+
+TEST(DistanceTransform, EquidistantFeaturesBothValid) {
+  // Two features symmetric about the middle plane: every voxel of that plane is a tie.
+  Grid g;
+  g.dims = {9, 5, 4};
+  g.spacing = {0.617, 0.617, 1.333};
+  Mask m(g);
+  m.at(0, 2, 1) = 1;
+  m.at(8, 2, 1) = 1;
+  expect_matches_brute_force(m);
+}
+
+TEST(DistanceTransform, NoFeatures) {
+  const Mask m = random_mask({12, 7, 5}, {0.617, 0.617, 1.333}, 0.0, 3);
+  for (bool nearest : {true, false}) {
+    const FeatureTransform ft = cvt::compute_feature_transform(m, nearest);
+    for (float d : ft.squared_distance_mm2.data) ASSERT_TRUE(std::isinf(d) && d > 0);
+    if (nearest)
+      for (std::int32_t n : ft.nearest.data) ASSERT_EQ(n, -1);
+  }
+}
+
+TEST(DistanceTransform, AllFeatures) {
+  const Mask m = random_mask({40, 9, 6}, {0.617, 0.617, 1.333}, 1.0, 4);
+  const FeatureTransform ft = cvt::compute_feature_transform(m);
+  for (std::size_t v = 0; v < m.size(); ++v) {
+    ASSERT_EQ(ft.squared_distance_mm2.data[v], 0.0f);
+    ASSERT_EQ(ft.nearest.data[v], std::int32_t(v));
+  }
+}
+
+TEST(DistanceTransform, SingleFeature) {
+  Grid g;
+  g.dims = {50, 40, 30};
+  g.spacing = {0.617, 0.617, 1.333};
+  Mask m(g);
+  m.at(11, 27, 4) = 1;
+  const FeatureTransform ft = cvt::compute_feature_transform(m);
+  const std::int32_t feature = std::int32_t(g.linear(11, 27, 4));
+  for (std::size_t v = 0; v < m.size(); ++v) {
+    ASSERT_EQ(ft.nearest.data[v], feature);
+    const double expected = squared_distance(g, v, feature);
+    ASSERT_NEAR(ft.squared_distance_mm2.data[v], expected, tolerance(expected));
+  }
+}
+
+TEST(DistanceTransform, EmptyGrid) {
+  Grid g;
+  g.dims = {0, 4, 4};
+  const FeatureTransform ft = cvt::compute_feature_transform(Mask(g));
+  EXPECT_EQ(ft.squared_distance_mm2.size(), 0u);
+  EXPECT_EQ(ft.nearest.size(), 0u);
+}
+
+TEST(DistanceTransform, RejectsMaskNotMatchingGrid) {
+  Mask m = random_mask({4, 4, 4}, {1, 1, 1}, 0.5, 5);
+  m.data.pop_back();
+  EXPECT_THROW(cvt::compute_feature_transform(m), cvt::InputError);
+}
+
+TEST(DistanceTransform, RejectsNonPositiveSpacing) {
+  Mask m = random_mask({4, 4, 4}, {1, 0, 1}, 0.5, 7);
+  EXPECT_THROW(cvt::compute_feature_transform(m), cvt::InputError);
+}
+
+FeatureTransform run_with_threads(const Mask& m, int threads) {
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+  return cvt::compute_feature_transform(m);
+}
+
+TEST(DistanceTransform, IdenticalForAnyThreadCount) {
+  // Sparse features (many long-range ties) and a grid wider than one tile.
+  const Mask m = random_mask({131, 97, 43}, {0.617, 0.617, 1.333}, 0.0003, 6);
+  const FeatureTransform one = run_with_threads(m, 1);
+  for (int threads : {2, 3}) {
+    const FeatureTransform many = run_with_threads(m, threads);
+    EXPECT_EQ(std::memcmp(one.squared_distance_mm2.data.data(),
+                          many.squared_distance_mm2.data.data(), m.size() * sizeof(float)),
+              0)
+        << threads << " threads";
+    EXPECT_EQ(one.nearest.data, many.nearest.data) << threads << " threads";
+  }
+}
+
+}  // namespace
