@@ -179,28 +179,66 @@ struct Scratch {
   std::vector<std::int64_t> acc;     // per candidate: Σw, Σw·i, Σw·j, Σw·k
 };
 
-using V8 = double __attribute__((vector_size(64)));  // one brick row: GCC/Clang vector extension
-
 // Nearest of m candidates for the 8 voxels of a row: x coordinates xs, candidate x coordinates cx
-// and the row's (y − zy)² + (z − zz)² per candidate cyz. Branch-free on 8 lanes; compiled for
-// AVX-512, AVX2 and baseline x86-64 and picked at load time. None of these targets has FMA, so
-// every clone rounds exactly like the scalar code in owners_from_index (identical ties).
-__attribute__((target_clones("avx512f", "avx2", "default"))) void nearest_in_row(
-    const double* xs, const double* cx, const double* cyz, int m, double* best_out,
-    double* arg_out) {
-  V8 x, best, arg;
-  std::memcpy(&x, xs, sizeof(V8));
-  for (int l = 0; l < 8; ++l) best[l] = kInf, arg[l] = 0;
-  for (int q = 0; q < m; ++q) {
-    const V8 dx = x - cx[q];
-    const V8 d = dx * dx + cyz[q];
-    const auto closer = d < best;
-    best = closer ? d : best;
-    arg = closer ? V8{} + double(q) : arg;
+// and the row's (y − zy)² + (z − zz)² per candidate cyz. Branch-free, on native vectors of L
+// doubles (GCC/Clang vector extensions; the bitwise select because GCC 12 scalarises `?:` and
+// comparisons on vectors wider than the target's).
+typedef double V2 __attribute__((vector_size(16)));
+typedef double V4 __attribute__((vector_size(32)));
+typedef double V8 __attribute__((vector_size(64)));
+typedef std::int64_t M2 __attribute__((vector_size(16)));
+typedef std::int64_t M4 __attribute__((vector_size(32)));
+typedef std::int64_t M8 __attribute__((vector_size(64)));
+
+template <class V, class M>
+[[gnu::always_inline]] inline void row_kernel(const double* xs, const double* cx,
+                                              const double* cyz, int m, double* best_out,
+                                              double* arg_out) {
+  constexpr int L = sizeof(V) / sizeof(double), P = 8 / L;
+  V x[P], best[P], arg[P];
+  for (int p = 0; p < P; ++p) {
+    std::memcpy(&x[p], xs + p * L, sizeof(V));
+    arg[p] = V{};
+    best[p] = arg[p] + kInf;
   }
-  std::memcpy(best_out, &best, sizeof(V8));
-  std::memcpy(arg_out, &arg, sizeof(V8));
+  for (int q = 0; q < m; ++q) {
+    const double c = cx[q], e = cyz[q];
+    const V qd = V{} + double(q);
+    for (int p = 0; p < P; ++p) {
+      const V dx = x[p] - c;
+      const V d = dx * dx + e;
+      const M closer = d < best[p];
+      best[p] = V((M(d) & closer) | (M(best[p]) & ~closer));
+      arg[p] = V((M(qd) & closer) | (M(arg[p]) & ~closer));
+    }
+  }
+  for (int p = 0; p < P; ++p) {
+    std::memcpy(best_out + p * L, &best[p], sizeof(V));
+    std::memcpy(arg_out + p * L, &arg[p], sizeof(V));
+  }
 }
+
+// One version per instruction set, picked once at start-up. None of them has FMA, so all round
+// exactly like the scalar code in owners_from_index (identical ties, identical owners).
+using RowKernel = void (*)(const double*, const double*, const double*, int, double*, double*);
+__attribute__((target("avx512f"))) void row_avx512(const double* xs, const double* cx,
+                                                   const double* cyz, int m, double* b, double* a) {
+  row_kernel<V8, M8>(xs, cx, cyz, m, b, a);
+}
+__attribute__((target("avx2"))) void row_avx2(const double* xs, const double* cx,
+                                              const double* cyz, int m, double* b, double* a) {
+  row_kernel<V4, M4>(xs, cx, cyz, m, b, a);
+}
+void row_sse2(const double* xs, const double* cx, const double* cyz, int m, double* b, double* a) {
+  row_kernel<V2, M2>(xs, cx, cyz, m, b, a);
+}
+const RowKernel nearest_in_row = [] {
+  __builtin_cpu_init();
+  if (std::getenv("CVT_ISA")) { std::string isa = std::getenv("CVT_ISA"); if (isa == "avx2") return &row_avx2; if (isa == "sse2") return &row_sse2; }
+  if (__builtin_cpu_supports("avx512f")) return &row_avx512;
+  if (__builtin_cpu_supports("avx2")) return &row_avx2;
+  return &row_sse2;
+}();
 
 // (y − zy)² + (z − zz)² for the m candidates, shared by the 8 voxels of a row (vectorised).
 __attribute__((target_clones("avx512f", "avx2", "default"))) void row_yz(

@@ -13,10 +13,7 @@ LfsBounds effective_lfs_bounds(const LfsOptions& options, const Mask& object) {
   const Grid& g = object.grid;
   LfsBounds b{options.min_mm, options.max_mm};
   if (b.min_mm <= 0) b.min_mm = std::max({g.spacing.x, g.spacing.y, g.spacing.z});
-  if (b.max_mm <= 0) {
-    const Vec3 extent = g.index_to_local({double(g.dims[0] - 1), double(g.dims[1] - 1), double(g.dims[2] - 1)});
-    b.max_mm = 0.5 * norm(extent);
-  }
+  if (b.max_mm <= 0) b.max_mm = 10.0 * std::max({g.spacing.x, g.spacing.y, g.spacing.z});
   b.max_mm = std::max(b.max_mm, b.min_mm);
   return b;
 }

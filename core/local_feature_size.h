@@ -9,7 +9,8 @@ namespace cvt {
 
 struct LfsOptions {
   double min_mm = 0;  // lower clamp (mm); 0 = auto: the largest voxel spacing
-  double max_mm = 0;  // upper clamp (mm); 0 = auto: half the diagonal of the crop (object box + margin)
+  double max_mm = 0;  // upper clamp (mm); 0 = auto: 10 × the largest voxel spacing, so
+                      // broad, flat parts are still sampled every few voxels
 };
 
 struct LfsBounds {

@@ -261,7 +261,7 @@ TetMesh read_medit(const std::string& path, std::string_view text) {
         if (ref < INT32_MIN || ref > INT32_MAX) fail("tetrahedron ref out of range");
         mesh.labels[t] = std::int32_t(ref);
       }
-    } else if (keyword[0] >= '0' && keyword[0] <= '9') {
+    } else if (std::string_view("0123456789+-.").find(keyword[0]) != std::string_view::npos) {
       fail("expected a keyword, found '" + std::string(keyword.substr(0, 40)) + "'");
     } else {
       // Unknown or unneeded section (Triangles, Edges, Corners, Ridges, Normals, ...): skip

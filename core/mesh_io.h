@@ -1,6 +1,14 @@
-// Tetrahedral meshes in and out of files. The format follows the extension:
-//   .mesh (Medit), .vtu (VTK XML), .msh (Gmsh 4.1), .inp (Abaqus), .feb (FEBio 4.0),
-//   .node/.ele (TetGen, both written), and the boundary surface as .stl/.ply/.obj.
+// Tetrahedral meshes in and out of files. The format follows the extension, and labels
+// (subdomains, 1 when the mesh has none) go where each format keeps them:
+//   .mesh  Medit (MeshVersionFormatted 2): tet refs = labels; Triangles = the boundary, ref =
+//          the label of its tet
+//   .vtu   VTK XML: cell data "label" plus MeshWriteOptions::cell_data
+//   .msh   Gmsh 4.1 ASCII: a volume per label (physical "label_<L>") and a surface of its
+//          boundary triangles (physical "boundary_<L>")
+//   .inp   Abaqus: C3D4 elements in ELSET SUBDOMAIN_<L> (M for minus); surface BOUNDARY
+//   .feb   FEBio 4.0 mesh: Elements "subdomain_<L>" (tet4) and Surface "boundary" (tri3)
+//   .node/.ele  TetGen, 1-based, both written; region attribute = label
+//   .stl (binary, float32) / .ply (binary, double) / .obj: the boundary surface only
 // Every write goes to a temp file beside the target that is renamed onto it, so a failure
 // never leaves a partial file; failures and bad files throw InputError naming the path.
 #pragma once
@@ -32,8 +40,9 @@ void write_mesh(const TetMesh& mesh, const std::string& path, const MeshWriteOpt
 // Reads a .mesh (Medit ASCII) or .vtu (VTK XML UnstructuredGrid: ascii, base64 or raw
 // appended, uncompressed or zlib) file. Only tetrahedra are kept (other cells are ignored);
 // tets with negative orientation are reoriented. Labels come from the Medit refs or a .vtu
-// cell array named label, medit:ref, gmsh:physical, CellEntityIds, MaterialIds or
-// subdomain; when every label is 1 they are left empty.
+// cell array named label(s), medit:ref, gmsh:physical, CellEntityIds, MaterialIds or
+// subdomain; when every label is 1 they are left empty. Unsupported: binary .meshb, VTK
+// compressors other than zlib (LZ4, LZMA), legacy .vtk.
 TetMesh read_mesh(const std::string& path);
 
 // The extensions write_mesh and read_mesh accept, e.g. ".mesh".

@@ -22,9 +22,9 @@ struct Parameters {
   double medial_min_separation_mm = 0;    // medial-axis λ; 0 = auto (3 × max spacing)
   double medial_min_angle_deg = 120;      // medial-axis θ
   double lfs_min_mm = 0;                  // lfs clamp; 0 = auto (max spacing)
-  double lfs_max_mm = 0;                  // lfs clamp; 0 = auto (½ crop diagonal)
+  double lfs_max_mm = 0;                  // lfs clamp; 0 = auto (10 × max spacing)
   // Stage 2: surface sampling.
-  double r = 0.6;                         // r-sampling ratio, in (0, 1)
+  double r = 0.4;                         // r-sampling ratio, in (0, 1)
   double sigma_surface_mm = 2.0;          // σ of the surface energy (eq. 3)
   bool project_samples = true;            // samples onto the sub-voxel boundary surface
   // Stage 3: CVT interior sampling.

@@ -14,7 +14,7 @@
 namespace cvt {
 
 struct SurfaceSamplingOptions {
-  double r = 0.6;                   // sampling ratio: samples within r·lfs of every boundary voxel
+  double r = 0.4;                   // sampling ratio: samples within r·lfs of every boundary voxel
   double sigma_mm = 2.0;            // σ of eq. (3), mm; scales energies (the order only depends
                                     // on h² − r² lfs², so σ never changes which voxel is next)
   bool project_to_surface = true;   // move samples onto the 0.5 level of the smoothed indicator

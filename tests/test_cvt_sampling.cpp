@@ -303,3 +303,27 @@ TEST(Explore, DISABLED_LiverConvergence) {
   const ShallowResult r = remove_shallow_points(st.grid(), st.sites_world(), pre.boundary);
   std::printf("kept %zu removed %zu boundary %zu\n", r.kept_world.size(), r.removed_world.size(), pre.boundary.size());
 }
+#include <fstream>
+TEST(Explore, DISABLED_LiverCached) {
+  PreprocessResult pre;
+  std::ifstream in("/tmp/cvt-liver.bin", std::ios::binary);
+  if (!in) {
+    pre = preprocess(read_image(CVTMESH_SOURCE_DIR "/data/liver.inr.gz"), {});
+    std::ofstream out("/tmp/cvt-liver.bin", std::ios::binary);
+    out.write((const char*)&pre.object.grid, sizeof(Grid));
+    out.write((const char*)pre.object.data.data(), pre.object.size());
+    out.write((const char*)pre.lfs_mm.data.data(), 4 * pre.lfs_mm.size());
+    return;
+  }
+  Grid g;
+  in.read((char*)&g, sizeof(Grid));
+  pre.object = Mask(g);
+  pre.lfs_mm = Volume<float>(g);
+  in.read((char*)pre.object.data.data(), pre.object.size());
+  in.read((char*)pre.lfs_mm.data.data(), 4 * pre.lfs_mm.size());
+  CvtOptions o = points(50000);
+  o.epsilon_mm = 1e-300;
+  LloydStepper st(pre, o);
+  st.run(4);
+  std::printf("energy %.8g\n", st.history().back().energy);
+}

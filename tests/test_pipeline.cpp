@@ -35,7 +35,7 @@ TEST(Pipeline, ParameterChangesMarkThatStageAndDownstreamStale) {
   EXPECT_TRUE(pipe.is_stale(Stage::mesh));
   EXPECT_EQ(pipe.mesh(), nullptr);
 
-  p.r = 0.4;
+  p.r = 0.3;
   pipe.set_parameters(p);
   EXPECT_FALSE(pipe.is_stale(Stage::preprocess));
   EXPECT_TRUE(pipe.is_stale(Stage::surface));
@@ -50,7 +50,7 @@ TEST(Pipeline, ParameterChangesMarkThatStageAndDownstreamStale) {
   Parameters bad = p;
   bad.r = 2;
   EXPECT_THROW(pipe.set_parameters(bad), InputError);
-  EXPECT_EQ(pipe.parameters().r, 0.4);
+  EXPECT_EQ(pipe.parameters().r, 0.3);
   EXPECT_FALSE(pipe.is_stale(Stage::mesh));
 }
 

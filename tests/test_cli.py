@@ -1,0 +1,127 @@
+#!/usr/bin/python3
+"""End-to-end checks of the cvtmesh command line: the liver's `info` figures and bad inputs.
+
+Usage: test_cli.py CVTMESH SOURCE_DIR   (run by ctest with Debian's /usr/bin/python3)
+"""
+import gzip
+import json
+import os
+import subprocess
+import sys
+import tempfile
+import unittest
+
+CVTMESH = sys.argv[1] if len(sys.argv) > 1 else "build/app/cvtmesh"
+SOURCE = sys.argv[2] if len(sys.argv) > 2 else "."
+LIVER = os.path.join(SOURCE, "data", "liver.inr.gz")
+
+
+def run(*args):
+    return subprocess.run([CVTMESH, *args], capture_output=True, text=True, timeout=600)
+
+
+class Info(unittest.TestCase):
+    def test_liver_json(self):
+        self.assertTrue(os.path.exists(LIVER), "run scripts/fetch-data first")
+        r = run("info", LIVER, "--json")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        info = json.loads(r.stdout)
+        self.assertEqual(info["dims"], [438, 353, 165])
+        for got, want in zip(info["spacing"], [0.617188, 0.617188, 1.33333]):
+            self.assertAlmostEqual(got, want, places=5)
+        counts = {h["label"]: h["count"] for h in info["labels"]}
+        self.assertEqual(counts, {0: 22019024, 255: 3160496, 127: 314086, 85: 17702, 84: 2})
+
+    def test_liver_text(self):
+        r = run("info", LIVER)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        self.assertIn("438 x 353 x 165", r.stdout)
+        self.assertIn("3160496", r.stdout)
+
+
+class BadInput(unittest.TestCase):
+    """Each bad input: non-zero exit, exactly one line on stderr naming the file, no crash.
+    (`mesh` runs with -q so its progress lines do not count.)"""
+
+    def setUp(self):
+        self.dir = tempfile.TemporaryDirectory()
+
+    def tearDown(self):
+        self.dir.cleanup()
+
+    def path(self, name):
+        return os.path.join(self.dir.name, name)
+
+    def assert_one_line_error(self, result, must_contain):
+        self.assertNotEqual(result.returncode, 0)
+        self.assertLess(result.returncode, 128, "crashed: " + result.stderr)
+        lines = result.stderr.strip().splitlines()
+        self.assertEqual(len(lines), 1, result.stderr)
+        self.assertIn(must_contain, lines[0])
+
+    def test_missing_file(self):
+        p = self.path("nope.nii.gz")
+        self.assert_one_line_error(run("info", p), p)
+
+    def test_unsupported_extension(self):
+        p = self.path("image.xyz")
+        with open(p, "w") as f:
+            f.write("hello")
+        self.assert_one_line_error(run("info", p), "unsupported")
+
+    def test_truncated_nii_gz(self):
+        # A real image cut in half, written by our own phantom tool.
+        good = self.path("torus.nii.gz")
+        phantom = os.path.join(os.path.dirname(CVTMESH), "cvtmesh-phantom")
+        subprocess.run([phantom, "torus", "-o", good], check=True)
+        with open(good, "rb") as f:
+            data = f.read()
+        bad = self.path("cut.nii.gz")
+        with open(bad, "wb") as f:
+            f.write(data[: len(data) // 2])
+        self.assert_one_line_error(run("info", bad), bad)
+        out = self.path("cut.vtu")
+        self.assert_one_line_error(run("mesh", bad, "-q", "-o", out), bad)
+        self.assertFalse(os.path.exists(out))
+
+    def test_2d_image(self):
+        # A 2D NRRD written by hand: 4 x 3 pixels.
+        p = self.path("flat.nrrd")
+        with open(p, "wb") as f:
+            f.write(b"NRRD0004\ntype: uint8\ndimension: 2\nsizes: 4 3\nencoding: raw\n\n")
+            f.write(bytes(12))
+        self.assert_one_line_error(run("info", p), "2D")
+
+    def test_absurd_dims(self):
+        # A header promising 100000^3 voxels must be refused before anything is allocated.
+        p = self.path("huge.nhdr")
+        with open(p, "w") as f:
+            f.write("NRRD0004\ntype: uint8\ndimension: 3\nsizes: 100000 100000 100000\n"
+                    "encoding: raw\ndata file: huge.raw\n\n")
+        with open(self.path("huge.raw"), "wb") as f:
+            f.write(bytes(16))
+        self.assert_one_line_error(run("info", p), p)
+
+    def test_empty_label_selection(self):
+        out = self.path("liver.vtu")
+        self.assert_one_line_error(run("mesh", LIVER, "-q", "--labels", "7", "-o", out), "label 7")
+        self.assertFalse(os.path.exists(out))
+
+    def test_bad_parameter(self):
+        out = self.path("liver.vtu")
+        self.assert_one_line_error(run("mesh", LIVER, "-q", "--r", "1.5", "-o", out), "r: must be in (0, 1)")
+
+    def test_output_folder_missing(self):
+        out = self.path("no/such/folder/liver.vtu")
+        self.assert_one_line_error(run("mesh", LIVER, "-q", "-o", out), "does not exist")
+
+    def test_bad_preset(self):
+        preset = self.path("p.json")
+        with open(preset, "w") as f:
+            f.write('{"r": 0.3, "radius": 2}')
+        self.assert_one_line_error(run("mesh", LIVER, "-q", "--preset", preset, "-o", self.path("x.vtu")),
+                                   "unknown parameter 'radius'")
+
+
+if __name__ == "__main__":
+    unittest.main(argv=[sys.argv[0]], verbosity=2)
