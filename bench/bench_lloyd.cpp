@@ -82,7 +82,11 @@ BENCHMARK(BM_LloydIteration)
     ->Args({200000, 2})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
-BENCHMARK(BM_ComputeLabels)->ArgName("sites")->Arg(50000)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_ComputeLabels)
+    ->ArgName("sites")
+    ->Arg(50000)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 BENCHMARK(BM_RemoveShallowPoints)
     ->ArgName("sites")
     ->Arg(50000)

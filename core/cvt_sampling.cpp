@@ -4,12 +4,11 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
-#include <cstring>
-#include <cstdlib>
-#include <atomic>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <random>
 #include <string>
@@ -22,11 +21,16 @@ namespace {
 
 constexpr double kWeightScale = double(1 << kWeightBits);
 constexpr double kInf = std::numeric_limits<double>::infinity();
-// Voxels per brick along i: the kernel's vector width (8 doubles = one AVX-512 or two AVX2 registers).
+// Candidate arrays are padded by one vector so the kernels never read past their end.
+constexpr int kPad = 8;
+// Voxels per brick along i: the kernel's vector width (8 doubles = one AVX-512 or two AVX2
+// registers).
 constexpr int kBrickX = 8;
 
 // Squared distance from p to the nearest / farthest point of the box [lo, hi].
-inline double gap(double v, double lo, double hi) { return std::max(0.0, std::max(lo - v, v - hi)); }
+inline double gap(double v, double lo, double hi) {
+  return std::max(0.0, std::max(lo - v, v - hi));
+}
 inline double min_dist2(const Vec3& p, const Vec3& lo, const Vec3& hi) {
   const double dx = gap(p.x, lo.x, hi.x), dy = gap(p.y, lo.y, hi.y), dz = gap(p.z, lo.z, hi.z);
   return dx * dx + dy * dy + dz * dz;
@@ -52,13 +56,12 @@ struct Candidates {
   int n = 0;
   int size() const { return n; }
   void ensure(std::size_t k) {
-    if (k <= x.size()) return;
-    k = std::max(k, 2 * x.size());
+    if (k + kPad <= x.size()) return;
+    k = std::max(k, 2 * x.size()) + kPad;  // kernels read whole vectors past the end
     id.resize(k), x.resize(k), y.resize(k), z.resize(k);
   }
 };
 
-static const bool g_nobisect = std::getenv("CVT_NOBISECT") != nullptr;
 // Sites bucketed into a uniform grid of cubic cells (CSR, coordinates copied in cell order).
 class SiteIndex {
  public:
@@ -67,9 +70,11 @@ class SiteIndex {
     // keeps every range query below correct because clamping is monotone.
     const Vec3 hi = local_of(grid, grid.dims[0] - 1, grid.dims[1] - 1, grid.dims[2] - 1);
     const double volume = std::max(hi.x, 1e-9) * std::max(hi.y, 1e-9) * std::max(hi.z, 1e-9);
-    // No more than ~4 cells per site, so sparse sites in a large crop stay cheap.
-    const double cf = std::getenv("CVT_CELL") ? std::atof(std::getenv("CVT_CELL")) : 1.0;
-    cell_ = std::max(cf * cell_mm, std::cbrt(volume / (64.0 * double(sites.size()) + 64.0)));
+    // cell_mm ≈ the site spacing (measured best on the liver: 0.7× and 0.5× were slower, 1.4×
+    // the same); 0 = one site per cell over the crop. Never more than 64 cells per site.
+    const double n = double(sites.size());
+    cell_ =
+        std::max(cell_mm > 0 ? cell_mm : std::cbrt(volume / n), std::cbrt(volume / (64 * n + 64)));
     for (int a = 0; a < 3; ++a) n_[a] = std::max(1, int(std::ceil(hi[a] / cell_)));
     std::vector<std::int32_t> cell_of(sites.size());
     start_.assign(std::size_t(n_[0]) * n_[1] * n_[2] + 1, 0);
@@ -140,7 +145,7 @@ class SiteIndex {
                            zn - z0n;
           out.id[out.n] = id_[at];
           out.x[out.n] = x, out.y[out.n] = y, out.z[out.n] = z;
-          out.n += (gx * gx + gy2 * gy2 + gz2 * gz2 <= r2) & (g_nobisect || h <= 1e-9 * (zn + z0n));
+          out.n += (gx * gx + gy2 * gy2 + gz2 * gz2 <= r2) & (h <= 1e-9 * (zn + z0n));
         }
       }
     }
@@ -173,16 +178,25 @@ namespace {
 
 struct Scratch {
   Candidates cand;
-  std::vector<double> c_yz;          // per candidate: (y − zy)² + (z − zz)² of the current row
-  std::vector<std::int32_t> owner;   // per brick slot: index into cand
-  std::vector<double> d2;            // per brick slot: squared distance to that owner (mm²)
-  std::vector<std::int64_t> acc;     // per candidate: Σw, Σw·i, Σw·j, Σw·k
+  std::vector<double> c_yz;         // per candidate: (y − zy)² + (z − zz)² of the current row
+  std::vector<std::int32_t> owner;  // per brick slot: index into cand
+  std::vector<double> d2;           // per brick slot: squared distance to that owner (mm²)
+  std::vector<std::int64_t> acc;    // per candidate: Σw, Σw·i, Σw·j, Σw·k
 };
 
-// Nearest of m candidates for the 8 voxels of a row: x coordinates xs, candidate x coordinates cx
-// and the row's (y − zy)² + (z − zz)² per candidate cyz. Branch-free, on native vectors of L
-// doubles (GCC/Clang vector extensions; the bitwise select because GCC 12 scalarises `?:` and
-// comparisons on vectors wider than the target's).
+// Keeps the compiler from fusing a·a + b into one FMA (a single rounding): every code path —
+// each instruction set, the scalar owners_from_index — then rounds identically, so ties between
+// equidistant sites resolve the same way everywhere. Costs no instruction.
+template <class T>
+[[gnu::always_inline]] inline void keep_rounded(T& v) {
+  asm("" : "+x"(v));
+}
+inline double square(double a) {
+  double p = a * a;
+  keep_rounded(p);
+  return p;
+}
+
 typedef double V2 __attribute__((vector_size(16)));
 typedef double V4 __attribute__((vector_size(32)));
 typedef double V8 __attribute__((vector_size(64)));
@@ -190,11 +204,27 @@ typedef std::int64_t M2 __attribute__((vector_size(16)));
 typedef std::int64_t M4 __attribute__((vector_size(32)));
 typedef std::int64_t M8 __attribute__((vector_size(64)));
 
+// Nearest of the m candidates for the 8 voxels of a brick row at (xs[0..8), y, z), branch-free
+// on native vectors V of L doubles (GCC/Clang vector extensions; a bitwise select because GCC 12
+// scalarises `?:` and comparisons on vectors wider than the target's). First (y − zy)² + (z − zz)²
+// per candidate, shared by the row (vectorised over candidates), then the 8 voxels against every
+// candidate (vectorised over voxels).
 template <class V, class M>
-[[gnu::always_inline]] inline void row_kernel(const double* xs, const double* cx,
-                                              const double* cyz, int m, double* best_out,
+[[gnu::always_inline]] inline void row_kernel(const double* xs, double y, double z,
+                                              const Candidates& c, double* cyz, double* best_out,
                                               double* arg_out) {
-  constexpr int L = sizeof(V) / sizeof(double), P = 8 / L;
+  constexpr int L = sizeof(V) / sizeof(double), P = kBrickX / L;
+  const int m = c.size();
+  for (int q = 0; q < m; q += L) {  // reads up to L − 1 padding entries
+    V cy, cz;
+    std::memcpy(&cy, &c.y[q], sizeof(V));
+    std::memcpy(&cz, &c.z[q], sizeof(V));
+    const V dy = y - cy, dz = z - cz;
+    V dy2 = dy * dy, dz2 = dz * dz;
+    keep_rounded(dy2), keep_rounded(dz2);
+    const V e = dy2 + dz2;
+    std::memcpy(cyz + q, &e, sizeof(V));
+  }
   V x[P], best[P], arg[P];
   for (int p = 0; p < P; ++p) {
     std::memcpy(&x[p], xs + p * L, sizeof(V));
@@ -202,11 +232,13 @@ template <class V, class M>
     best[p] = arg[p] + kInf;
   }
   for (int q = 0; q < m; ++q) {
-    const double c = cx[q], e = cyz[q];
+    const double cx = c.x[q], e = cyz[q];
     const V qd = V{} + double(q);
     for (int p = 0; p < P; ++p) {
-      const V dx = x[p] - c;
-      const V d = dx * dx + e;
+      const V dx = x[p] - cx;
+      V dx2 = dx * dx;
+      keep_rounded(dx2);
+      const V d = dx2 + e;
       const M closer = d < best[p];
       best[p] = V((M(d) & closer) | (M(best[p]) & ~closer));
       arg[p] = V((M(qd) & closer) | (M(arg[p]) & ~closer));
@@ -218,45 +250,35 @@ template <class V, class M>
   }
 }
 
-// One version per instruction set, picked once at start-up. None of them has FMA, so all round
-// exactly like the scalar code in owners_from_index (identical ties, identical owners).
-using RowKernel = void (*)(const double*, const double*, const double*, int, double*, double*);
-__attribute__((target("avx512f"))) void row_avx512(const double* xs, const double* cx,
-                                                   const double* cyz, int m, double* b, double* a) {
-  row_kernel<V8, M8>(xs, cx, cyz, m, b, a);
+// One version per instruction set, picked once at start-up.
+using RowKernel = void (*)(const double*, double, double, const Candidates&, double*, double*,
+                           double*);
+__attribute__((target("avx512f"))) void row_avx512(const double* xs, double y, double z,
+                                                   const Candidates& c, double* cyz, double* b,
+                                                   double* a) {
+  row_kernel<V8, M8>(xs, y, z, c, cyz, b, a);
 }
-__attribute__((target("avx2"))) void row_avx2(const double* xs, const double* cx,
-                                              const double* cyz, int m, double* b, double* a) {
-  row_kernel<V4, M4>(xs, cx, cyz, m, b, a);
+__attribute__((target("avx2"))) void row_avx2(const double* xs, double y, double z,
+                                              const Candidates& c, double* cyz, double* b,
+                                              double* a) {
+  row_kernel<V4, M4>(xs, y, z, c, cyz, b, a);
 }
-void row_sse2(const double* xs, const double* cx, const double* cyz, int m, double* b, double* a) {
-  row_kernel<V2, M2>(xs, cx, cyz, m, b, a);
+void row_sse2(const double* xs, double y, double z, const Candidates& c, double* cyz, double* b,
+              double* a) {
+  row_kernel<V2, M2>(xs, y, z, c, cyz, b, a);
 }
 const RowKernel nearest_in_row = [] {
   __builtin_cpu_init();
-  if (std::getenv("CVT_ISA")) { std::string isa = std::getenv("CVT_ISA"); if (isa == "avx2") return &row_avx2; if (isa == "sse2") return &row_sse2; }
   if (__builtin_cpu_supports("avx512f")) return &row_avx512;
   if (__builtin_cpu_supports("avx2")) return &row_avx2;
   return &row_sse2;
 }();
 
-// (y − zy)² + (z − zz)² for the m candidates, shared by the 8 voxels of a row (vectorised).
-__attribute__((target_clones("avx512f", "avx2", "default"))) void row_yz(
-    double y, double z, const double* cy, const double* cz, int m, double* out) {
-  for (int q = 0; q < m; ++q) {
-    const double dy = y - cy[q], dz = z - cz[q];
-    out[q] = dy * dy + dz * dz;
-  }
-}
-
-// Nearest candidate for every slot of a brick, one row of kBrickX voxels along i at a time:
-// (y − zy)² + (z − zz)² is shared by the row. Rows without object voxels are skipped.
+// Nearest candidate for every slot of a brick, row by row; rows without object voxels skipped.
 void nearest_in_brick(const Grid& g, const std::array<int, 3>& lo, const std::array<int, 3>& bd,
                       const std::int32_t* weight, Scratch& s) {
-  static_assert(kBrickX == 8, "nearest_in_row handles rows of 8 voxels");
-  const Candidates& c = s.cand;
-  const int m = c.size();
-  s.c_yz.resize(m);
+  static_assert(kBrickX == 8 && kPad >= 8, "row_kernel handles rows of 8 voxels");
+  s.c_yz.resize(std::size_t(s.cand.size()) + kPad);
   double xs[kBrickX], best[kBrickX], arg[kBrickX];
   for (int ii = 0; ii < kBrickX; ++ii) xs[ii] = double(lo[0] + ii) * g.spacing.x;
   for (int kk = 0; kk < bd[2]; ++kk)
@@ -265,8 +287,7 @@ void nearest_in_brick(const Grid& g, const std::array<int, 3>& lo, const std::ar
       if (std::all_of(weight + row, weight + row + kBrickX, [](std::int32_t w) { return w < 0; }))
         continue;
       const double y = double(lo[1] + jj) * g.spacing.y, z = double(lo[2] + kk) * g.spacing.z;
-      row_yz(y, z, c.y.data(), c.z.data(), m, s.c_yz.data());
-      nearest_in_row(xs, c.x.data(), s.c_yz.data(), m, best, arg);
+      nearest_in_row(xs, y, z, s.cand, s.c_yz.data(), best, arg);
       for (int ii = 0; ii < kBrickX; ++ii) {
         s.owner[row + ii] = std::int32_t(arg[ii]);
         s.d2[row + ii] = best[ii];
@@ -340,9 +361,8 @@ LloydStepper& LloydStepper::operator=(LloydStepper&&) noexcept = default;
 void LloydStepper::pack_bricks(const Mask& object, const Volume<float>& density) {
   const Grid& g = grid_;
   brick_[0] = kBrickX;
-  const double f = std::getenv("CVT_BRICK") ? std::atof(std::getenv("CVT_BRICK")) : 1.0;
-  brick_[1] = std::clamp(int(std::lround(f * kBrickX * g.spacing.x / g.spacing.y)), 1, 16);
-  brick_[2] = std::clamp(int(std::lround(f * kBrickX * g.spacing.x / g.spacing.z)), 1, 16);
+  brick_[1] = std::clamp(int(std::lround(kBrickX * g.spacing.x / g.spacing.y)), 1, 16);
+  brick_[2] = std::clamp(int(std::lround(kBrickX * g.spacing.x / g.spacing.z)), 1, 16);
   const int bvol = brick_[0] * brick_[1] * brick_[2];
   std::array<int, 3>& nb = brick_grid_;
   for (int a = 0; a < 3; ++a) nb[a] = (g.dims[a] + brick_[a] - 1) / brick_[a];
@@ -364,7 +384,8 @@ void LloydStepper::pack_bricks(const Mask& object, const Volume<float>& density)
               if (!g.contains(v[0], v[1], v[2]) || !object.at(v[0], v[1], v[2])) continue;
               const double rho = std::clamp(double(density.at(v[0], v[1], v[2])), 0.0, 1.0);
               slots[s] = std::int32_t(std::lround(rho * kWeightScale));
-              for (int a = 0; a < 3; ++a) b.lo[a] = std::min(b.lo[a], v[a]), b.hi[a] = std::max(b.hi[a], v[a]);
+              for (int a = 0; a < 3; ++a)
+                b.lo[a] = std::min(b.lo[a], v[a]), b.hi[a] = std::max(b.hi[a], v[a]);
             }
         if (b.hi[0] < 0) continue;
         layer_bricks[bk].push_back(b);
@@ -387,7 +408,8 @@ bool LloydStepper::inside(int i, int j, int k) const {
   const int bi = i / brick_[0], bj = j / brick_[1], bk = k / brick_[2];
   const std::int32_t b = brick_at_[(std::size_t(bk) * brick_grid_[1] + bj) * brick_grid_[0] + bi];
   if (b < 0) return false;
-  const int slot = ((k - bk * brick_[2]) * brick_[1] + (j - bj * brick_[1])) * brick_[0] + (i - bi * brick_[0]);
+  const int slot =
+      ((k - bk * brick_[2]) * brick_[1] + (j - bj * brick_[1])) * brick_[0] + (i - bi * brick_[0]);
   return weight_[std::size_t(b) * brick_[0] * brick_[1] * brick_[2] + slot] >= 0;
 }
 
@@ -429,8 +451,9 @@ void LloydStepper::initialize() {
   std::vector<Vec3> sites(std::size_t(resolved_.sites));
   for (Vec3& site : sites) {
     const std::int64_t u = std::int64_t(rng() % total);
-    const std::size_t b =
-        std::size_t(std::upper_bound(cumulative.begin(), cumulative.end(), u) - cumulative.begin()) - 1;
+    const std::size_t b = std::size_t(std::upper_bound(cumulative.begin(), cumulative.end(), u) -
+                                      cumulative.begin()) -
+                          1;
     std::int64_t rest = u - cumulative[b];
     std::size_t s = 0;
     for (; s < bvol; ++s) {
@@ -460,7 +483,9 @@ IterationStats LloydStepper::step(const Progress& progress) {
     Scratch s;
     std::vector<std::int64_t> sums;
   };
-  tbb::enumerable_thread_specific<Local> tls([&] { return Local{{}, std::vector<std::int64_t>(4 * n, 0)}; });
+  tbb::enumerable_thread_specific<Local> tls([&] {
+    return Local{{}, std::vector<std::int64_t>(4 * n, 0)};
+  });
   std::vector<double> brick_energy(bricks_.size(), 0.0);  // summed in brick order afterwards
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, bricks_.size(), 16), [&](const auto& range) {
     progress.check_cancelled();
@@ -587,7 +612,8 @@ std::vector<std::int32_t> owners_from_index(const Grid& g, const SiteIndex& inde
   std::vector<std::pair<std::int64_t, std::int32_t>> order(voxels.size());
   for (std::size_t v = 0; v < voxels.size(); ++v) {
     if (voxels[v] < 0 || std::size_t(voxels[v]) >= g.voxel_count())
-      throw InputError("CVT owners: voxel index " + std::to_string(voxels[v]) + " is outside the grid");
+      throw InputError("CVT owners: voxel index " + std::to_string(voxels[v]) +
+                       " is outside the grid");
     const auto p = g.ijk(std::size_t(voxels[v]));
     const std::int64_t key = ((std::int64_t(p[2] / 8) * 4096) + p[1] / 8) * 4096 + p[0] / 8;
     order[v] = {key, std::int32_t(v)};
@@ -615,7 +641,7 @@ std::vector<std::int32_t> owners_from_index(const Grid& g, const SiteIndex& inde
       int arg = 0;
       for (int q = 0; q < c.size(); ++q) {
         const double dx = x.x - c.x[q], dy = x.y - c.y[q], dz = x.z - c.z[q];
-        const double d = dx * dx + (dy * dy + dz * dz);
+        const double d = square(dx) + (square(dy) + square(dz));
         if (d < best) best = d, arg = q;
       }
       owners[order[v].second] = c.id[arg];
@@ -652,7 +678,8 @@ std::vector<std::int32_t> LloydStepper::slice_labels(int axis, int index) const 
   return out;
 }
 
-std::vector<std::int32_t> nearest_site_owners(const Grid& grid, const std::vector<Vec3>& sites_local,
+std::vector<std::int32_t> nearest_site_owners(const Grid& grid,
+                                              const std::vector<Vec3>& sites_local,
                                               const std::vector<std::int32_t>& voxels) {
   if (sites_local.empty()) return std::vector<std::int32_t>(voxels.size(), -1);
   return owners_from_index(grid, SiteIndex(grid, sites_local, 0.0), voxels);

@@ -19,12 +19,12 @@
 namespace cvt {
 
 struct CvtOptions {
-  double sigma_density_mm = 0;      // σ_d of eq. 4 (mm); 0 = auto: the interior spacing
-  double interior_spacing_mm = 0;   // wanted distance between neighbouring sites (mm)
-  std::int64_t interior_points = 0; // number of sites; > 0 wins over interior_spacing_mm
-  double epsilon_mm = 0;            // stop when Σ displacement < ε (mm); 0 = auto (below)
-  int max_iterations = 100;         // run_to_convergence stops here anyway
-  std::uint64_t seed = 1;           // initial points (std::mt19937_64)
+  double sigma_density_mm = 0;       // σ_d of eq. 4 (mm); 0 = auto: the interior spacing
+  double interior_spacing_mm = 0;    // wanted distance between neighbouring sites (mm)
+  std::int64_t interior_points = 0;  // number of sites; > 0 wins over interior_spacing_mm
+  double epsilon_mm = 0;             // stop when Σ displacement < ε (mm); 0 = auto (below)
+  int max_iterations = 100;          // run_to_convergence stops here anyway
+  std::uint64_t seed = 1;            // initial points (std::mt19937_64)
 };
 
 // Density weights are ρ quantised to multiples of 2^-kWeightBits, so centroid sums are exact
@@ -41,24 +41,24 @@ Volume<float> compute_density(const Mask& object, const Volume<float>& lfs_mm, d
 
 // Parameters after resolving the "auto" and "either/or" choices.
 struct CvtResolved {
-  std::int64_t sites = 0;           // N = volume / (0.7698 · spacing³), or interior_points
-  double spacing_mm = 0;            // the spacing N corresponds to (given or derived from N)
-  double sigma_density_mm = 0;      // auto = spacing_mm: where lfs < ~2 spacings the part is so
-                                    // thin that surface samples fill it, so ρ drops there
-  double epsilon_mm = 0;            // auto = 0.01 · spacing · N: mean displacement < 1 % spacing
+  std::int64_t sites = 0;       // N = volume / (0.7698 · spacing³), or interior_points
+  double spacing_mm = 0;        // the spacing N corresponds to (given or derived from N)
+  double sigma_density_mm = 0;  // auto = spacing_mm: where lfs < ~2 spacings the part is so
+                                // thin that surface samples fill it, so ρ drops there
+  double epsilon_mm = 0;        // auto = 0.01 · spacing · N: mean displacement < 1 % spacing
   double object_volume_mm3 = 0;
 };
 // Throws InputError naming --interior-spacing/--interior-points when neither is set.
 CvtResolved resolve_cvt_options(const CvtOptions& options, const Mask& object);
 
 struct IterationStats {
-  int iteration = 0;              // 0-based
-  double energy = 0;              // Σ_voxels ρ(p)·|p − z_owner|² (mm²·voxels), owners and sites
-                                  // as they were BEFORE this iteration's move; non-increasing
-  double displacement_sum_mm = 0; // Σ |z* − z| over the sites (paper's delta)
+  int iteration = 0;  // 0-based
+  double energy = 0;  // Σ_voxels ρ(p)·|p − z_owner|² (mm²·voxels), owners and sites
+                      // as they were BEFORE this iteration's move; non-increasing
+  double displacement_sum_mm = 0;  // Σ |z* − z| over the sites (paper's delta)
   double displacement_mean_mm = 0;
   double displacement_max_mm = 0;
-  std::int64_t empty_regions = 0; // sites that own no weight (they stay where they are)
+  std::int64_t empty_regions = 0;  // sites that own no weight (they stay where they are)
   double wall_s = 0;
 };
 
@@ -119,11 +119,11 @@ class LloydStepper {
   CvtResolved resolved_;
   std::uint64_t seed_ = 1;
   int max_iterations_ = 100;
-  std::array<int, 3> brick_{8, 8, 4};      // voxels per brick along i, j, k
-  std::array<int, 3> brick_grid_{0, 0, 0}; // bricks along i, j, k
-  std::vector<Brick> bricks_;              // bricks holding object voxels
-  std::vector<std::int32_t> brick_at_;     // brick grid → index into bricks_, −1 if empty
-  std::vector<std::int32_t> weight_;       // per brick slot: ρ·2^20, −1 outside the object
+  std::array<int, 3> brick_{8, 8, 4};       // voxels per brick along i, j, k
+  std::array<int, 3> brick_grid_{0, 0, 0};  // bricks along i, j, k
+  std::vector<Brick> bricks_;               // bricks holding object voxels
+  std::vector<std::int32_t> brick_at_;      // brick grid → index into bricks_, −1 if empty
+  std::vector<std::int32_t> weight_;        // per brick slot: ρ·2^20, −1 outside the object
   std::vector<Vec3> sites_local_, sites_world_;
   std::vector<IterationStats> history_;
   bool initialized_ = false, converged_ = false;

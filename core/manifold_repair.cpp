@@ -74,7 +74,50 @@ std::size_t keep_largest_fan(const std::vector<Tet>& tets, const std::vector<std
   return removed;
 }
 
+// True when the link edges (the far edges of the boundary triangles around a vertex) form a
+// single closed cycle, i.e. the boundary is a disc around the vertex.
+bool link_is_one_cycle(const std::vector<Edge>& l) {
+  std::map<std::int32_t, std::vector<std::int32_t>> next;
+  for (const Edge& e : l) {
+    next[e.first].push_back(e.second);
+    next[e.second].push_back(e.first);
+  }
+  for (const auto& [x, ns] : next)
+    if (ns.size() != 2) return false;
+  std::size_t visited = 1;
+  std::int32_t prev = l[0].first, cur = l[0].second;
+  while (cur != l[0].first && visited <= l.size()) {
+    const auto& ns = next[cur];
+    const std::int32_t nxt = ns[0] == prev ? ns[1] : ns[0];
+    prev = cur;
+    cur = nxt;
+    ++visited;
+  }
+  return visited == l.size();
+}
+
+// Boundary link of every vertex.
+std::vector<std::vector<Edge>> boundary_links(const std::vector<Triangle>& boundary,
+                                              std::size_t vertex_count) {
+  std::vector<std::vector<Edge>> link(vertex_count);
+  for (const Triangle& f : boundary)
+    for (int k = 0; k < 3; ++k) link[f[k]].push_back(edge(f[(k + 1) % 3], f[(k + 2) % 3]));
+  return link;
+}
+
 }  // namespace
+
+std::vector<std::int32_t> pinched_boundary_vertices(std::size_t vertex_count,
+                                                    const std::vector<Tet>& tets) {
+  TetMesh view;
+  view.vertices.resize(vertex_count);
+  view.tets = tets;
+  const auto link = boundary_links(boundary_triangles(view), vertex_count);
+  std::vector<std::int32_t> pinched;
+  for (std::size_t v = 0; v < vertex_count; ++v)
+    if (!link[v].empty() && !link_is_one_cycle(link[v])) pinched.push_back(std::int32_t(v));
+  return pinched;
+}
 
 ManifoldRepairReport repair_boundary_manifold(const std::vector<Vec3>& points,
                                               std::vector<Tet>& tets,
@@ -88,12 +131,9 @@ ManifoldRepairReport repair_boundary_manifold(const std::vector<Vec3>& points,
 
     // Boundary faces per edge, and the boundary link of every vertex.
     std::map<Edge, int> edge_use;
-    std::vector<std::vector<Edge>> link(points.size());
     for (const Triangle& f : boundary)
-      for (int k = 0; k < 3; ++k) {
-        ++edge_use[edge(f[k], f[(k + 1) % 3])];
-        link[f[k]].push_back(edge(f[(k + 1) % 3], f[(k + 2) % 3]));
-      }
+      for (int k = 0; k < 3; ++k) ++edge_use[edge(f[k], f[(k + 1) % 3])];
+    const auto link = boundary_links(boundary, points.size());
 
     // 1. Flat tets with a face on the boundary.
     std::size_t changed = 0;
@@ -126,29 +166,7 @@ ManifoldRepairReport repair_boundary_manifold(const std::vector<Vec3>& points,
     }
     // 3. Vertices whose boundary link is not one cycle: the star has several fans.
     for (std::size_t v = 0; v < points.size(); ++v) {
-      const std::vector<Edge>& l = link[v];
-      if (l.empty()) continue;
-      // One cycle ⇔ walking the link from one edge visits every edge.
-      std::map<std::int32_t, std::vector<std::int32_t>> next;
-      for (const Edge& e : l) {
-        next[e.first].push_back(e.second);
-        next[e.second].push_back(e.first);
-      }
-      bool one_cycle = true;
-      for (const auto& [x, ns] : next) one_cycle &= ns.size() == 2;
-      if (one_cycle) {
-        std::size_t visited = 1;
-        std::int32_t prev = l[0].first, cur = l[0].second;
-        while (cur != l[0].first && visited <= l.size()) {
-          const auto& ns = next[cur];
-          const std::int32_t nxt = ns[0] == prev ? ns[1] : ns[0];
-          prev = cur;
-          cur = nxt;
-          ++visited;
-        }
-        one_cycle = visited == l.size();
-      }
-      if (one_cycle) continue;
+      if (link[v].empty() || link_is_one_cycle(link[v])) continue;
       const std::vector<std::int32_t> group(star.tets.begin() + star.start[v],
                                             star.tets.begin() + star.start[v + 1]);
       std::size_t n = keep_largest_fan(tets, group, remove);

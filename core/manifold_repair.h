@@ -21,6 +21,11 @@ struct ManifoldRepairReport {
   bool manifold = false;                // the boundary is a closed 2-manifold at the end
 };
 
+// Vertices where the boundary of `tets` is not a disc (their boundary link is not one cycle):
+// the ends of non-manifold edges and the points where two sheets of the boundary touch.
+std::vector<std::int32_t> pinched_boundary_vertices(std::size_t vertex_count,
+                                                    const std::vector<Tet>& tets);
+
 // tets index `points`; removed tets are appended to `removed` (as corner positions) when given.
 ManifoldRepairReport repair_boundary_manifold(const std::vector<Vec3>& points,
                                               std::vector<Tet>& tets,

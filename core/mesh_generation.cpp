@@ -140,34 +140,52 @@ MeshGenerationResult build_delaunay_mesh(const std::vector<Vec3>& surface,
   for (int i = 0; i < ni; ++i) pts.push_back({to_point(interior[i]), nb + i});
   for (std::size_t i = 0; i < out.exterior_poles.size(); ++i)
     pts.push_back({to_point(out.exterior_poles[i]), -1});  // −1 marks a pole
-  const Delaunay dt = triangulate(pts);
+  Delaunay dt = triangulate(pts);
   progress.check_cancelled();
 
-  progress("pole removal", 0.7);
+  std::vector<Delaunay::Vertex_handle> handle(std::size_t(nb + ni));
+  for (auto v = dt.finite_vertices_begin(); v != dt.finite_vertices_end(); ++v)
+    if (v->info() >= 0) handle[v->info()] = v;
+
+  // Rules 1 and 2 select the tets; where the result pinches (the boundary is not a disc around
+  // a sample), that sample is deleted from the triangulation and the selection redone.
   std::vector<Tet> kept;  // indices into B ∪ I
-  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
-    ++out.delaunay_tets;
-    Tet t;
-    bool pole = false;
-    for (int k = 0; k < 4; ++k) {
-      t[k] = c->vertex(k)->info();
-      pole |= t[k] < 0;
-    }
-    if (pole) {
-      ++out.removed_by_poles;
-      continue;
-    }
-    if (options.remove_outside_tets) {
-      Vec3 centroid{0, 0, 0};
-      std::array<Vec3, 4> corners;
-      for (int k = 0; k < 4; ++k) centroid += corners[k] = to_vec(c->vertex(k)->point());
-      if (!inside(centroid / 4.0)) {
-        ++out.removed_by_centroid;
-        out.removed_outside.push_back(corners);
+  for (int pass = 0;; ++pass) {
+    progress(pass == 0 ? "pole removal" : "pinch removal", 0.7);
+    kept.clear();
+    out.removed_outside.clear();
+    out.delaunay_tets = out.removed_by_poles = out.removed_by_centroid = 0;
+    for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
+      ++out.delaunay_tets;
+      Tet t;
+      bool pole = false;
+      for (int k = 0; k < 4; ++k) {
+        t[k] = c->vertex(k)->info();
+        pole |= t[k] < 0;
+      }
+      if (pole) {
+        ++out.removed_by_poles;
         continue;
       }
+      if (options.remove_outside_tets) {
+        Vec3 centroid{0, 0, 0};
+        std::array<Vec3, 4> corners;
+        for (int k = 0; k < 4; ++k) centroid += corners[k] = to_vec(c->vertex(k)->point());
+        if (!inside(centroid / 4.0)) {
+          ++out.removed_by_centroid;
+          out.removed_outside.push_back(corners);
+          continue;
+        }
+      }
+      kept.push_back(t);
     }
-    kept.push_back(t);
+    if (!options.repair_manifold || pass >= options.max_pinch_passes) break;
+    const std::vector<std::int32_t> pinched = pinched_boundary_vertices(std::size_t(nb + ni), kept);
+    if (pinched.empty()) break;
+    for (std::int32_t v : pinched) {
+      dt.remove(handle[v]);
+      out.pinched_samples.push_back(v < nb ? surface[v] : interior[v - nb]);
+    }
   }
 
   progress("manifold repair", 0.9);

@@ -2,7 +2,9 @@
 // the Voronoi diagram of B; those outside the object (EP) join B ∪ I in a second Delaunay
 // triangulation, and every tet incident to a pole is deleted. Tets that still lie outside the
 // object (deep concavities) are removed by a second, documented rule: centroid outside. A third
-// rule peels tets where the boundary pinches (manifold_repair.h), so it is a closed 2-manifold.
+// rule makes the boundary a closed 2-manifold: a sample where the boundary pinches (two sheets
+// touch, or tets meet only along an edge) is deleted from the triangulation and rules 1–2 are
+// applied again; whatever still pinches after a few rounds is peeled (manifold_repair.h).
 #pragma once
 
 #include <cstddef>
@@ -20,7 +22,9 @@ using InsideFunction = std::function<bool(const Vec3& world)>;
 
 struct MeshGenerationOptions {
   bool remove_outside_tets = true;  // rule 2: drop remaining tets whose centroid is outside
-  bool repair_manifold = true;      // rule 3: peel tets until the boundary is a 2-manifold
+  bool repair_manifold = true;      // rule 3: delete samples where the boundary pinches, then
+                                    // peel whatever pinch remains, so it is a closed 2-manifold
+  int max_pinch_passes = 10;        // rounds of sample deletion before peeling takes over
 };
 
 struct MeshGenerationResult {
@@ -31,7 +35,8 @@ struct MeshGenerationResult {
   std::size_t delaunay_tets = 0;          // finite tets of Delaunay(B ∪ EP ∪ I)
   std::size_t removed_by_poles = 0;       // rule 1: incident to a pole
   std::size_t removed_by_centroid = 0;    // rule 2
-  ManifoldRepairReport repair;            // rule 3: peeling to a closed 2-manifold boundary
+  std::vector<Vec3> pinched_samples;      // rule 3: samples deleted where the boundary pinched
+  ManifoldRepairReport repair;            // rule 3, fallback: peeling of what still pinches
   std::vector<std::array<Vec3, 4>> removed_by_repair;  // tets removed by rule 3, for the viewer
   std::size_t unused_samples = 0;         // samples of B ∪ I no kept tet references
   std::vector<int> vertex_source;         // for each mesh vertex: index into B, or |B| + index in I

@@ -58,6 +58,7 @@ nlohmann::json run_report(const Pipeline& pipe) {
     counts["removed_by_poles"] = m->removed_by_poles;
     counts["removed_by_centroid"] = m->removed_by_centroid;
     counts["unused_samples"] = m->unused_samples;
+    counts["pinched_samples_removed"] = m->pinched_samples.size();
     counts["removed_by_repair"] = m->removed_by_repair.size();
     counts["repair_passes"] = m->repair.passes;
   }

@@ -11,9 +11,9 @@
 namespace cvt {
 
 struct ShallowResult {
-  std::vector<Vec3> kept_world;            // interior samples I without the shallow ones (mm)
-  std::vector<Vec3> removed_world;         // the shallow ones, for the viewer (drawn red)
-  std::vector<std::int32_t> kept_index;    // their indices in the input sites
+  std::vector<Vec3> kept_world;          // interior samples I without the shallow ones (mm)
+  std::vector<Vec3> removed_world;       // the shallow ones, for the viewer (drawn red)
+  std::vector<std::int32_t> kept_index;  // their indices in the input sites
   std::vector<std::int32_t> removed_index;
 };
 

@@ -76,7 +76,7 @@ TEST(CvtOptions, SiteCountFromSpacingAndDensityFormula) {
   const CvtResolved r = resolve_cvt_options(o, pre.object);
   EXPECT_NEAR(double(r.sites), r.object_volume_mm3 / (0.7698 * 8.0), 1.0);
   EXPECT_DOUBLE_EQ(r.sigma_density_mm, 2.0);  // auto σ_d = spacing
-  o.interior_points = 40;  // wins over the spacing
+  o.interior_points = 40;                     // wins over the spacing
   const CvtResolved p = resolve_cvt_options(o, pre.object);
   EXPECT_EQ(p.sites, 40);
   EXPECT_NEAR(40 * kBccVolumePerSite * std::pow(p.spacing_mm, 3), p.object_volume_mm3, 1e-6);
@@ -105,7 +105,8 @@ TEST(LloydStepper, AssignmentIsExactNearestAndEnergyMatchesDefinition) {
     ASSERT_GE(labels.data[v], 0);
     const double d2 = squared_distance(local_voxel(g, v), sites[labels.data[v]]);
     ASSERT_LE(d2, nearest_d2(g, v, sites) + 1e-9) << "voxel " << v;
-    energy += std::lround(double(rho.data[v]) * (1 << kWeightBits)) * std::pow(2.0, -kWeightBits) * d2;
+    energy +=
+        std::lround(double(rho.data[v]) * (1 << kWeightBits)) * std::pow(2.0, -kWeightBits) * d2;
   }
   // The point queries agree with the brick pass, ties included.
   const std::vector<std::int32_t> owners = st.owners_of(object_voxels);
@@ -248,82 +249,4 @@ TEST(ShallowPoints, RemovesExactlyTheSitesWhoseRegionTouchesF) {
   const ShallowResult r2 = remove_shallow_points(st.sites_world(), st.owners_of(pre.boundary));
   EXPECT_EQ(r2.removed_index, r.removed_index);
   EXPECT_THROW(remove_shallow_points(st.sites_world(), {300}), InputError);
-}
-
-TEST(Explore, DISABLED_CvCurve) {
-  const Phantom p = slab_phantom({1, 2, 3}, 24.0, 12.0);
-  const Grid g = grid_around(p, {0.5, 0.6, 0.7}, rotation_matrix({1, 1, 0}, 0.3));
-  const Image img = rasterize(p, g);
-  Mask object(g, 0);
-  for (std::size_t v = 0; v < g.voxel_count(); ++v) object.data[v] = img.voxels.data[v] > 0;
-  const Volume<float> one(g, 1.0f);
-  for (std::uint64_t seed = 1; seed <= 5; ++seed) {
-    CvtOptions o = points(300, seed);
-    o.epsilon_mm = 1e-300;
-    LloydStepper st(object, one, o);
-    st.initialize();
-    std::printf("seed %d random %.3f", int(seed), coefficient_of_variation(nn_distances(st.sites_local())));
-    for (int k : {5, 10, 20, 40, 80, 160, 320}) {
-      st.run(k - int(st.history().size()));
-      const auto& h = st.history().back();
-      std::printf(" | %d: cv %.3f mean %.4f", k, coefficient_of_variation(nn_distances(st.sites_local())), h.displacement_mean_mm / st.resolved().spacing_mm);
-    }
-    std::printf("\n");
-  }
-}
-
-#include <sys/resource.h>
-#include <chrono>
-#include "image_io.h"
-TEST(Explore, DISABLED_Liver) {
-  static const PreprocessResult pre = preprocess(read_image(CVTMESH_SOURCE_DIR "/data/liver.inr.gz"), {});
-  const char* env = std::getenv("SITES");
-  CvtOptions o = points(env ? std::atoll(env) : 50000);
-  o.epsilon_mm = 1e-300;
-  LloydStepper st(pre, o);
-  st.run(3);
-  auto cpu = [] { rusage u; getrusage(RUSAGE_SELF, &u); return u.ru_utime.tv_sec + 1e-6 * u.ru_utime.tv_usec; };
-  for (int threads : {1, 2}) {
-    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
-    double best = 1e9;
-    for (int i = 0; i < 12; ++i) best = std::min(best, st.step().wall_s);
-    std::printf("threads %d: min %.1f ms/iter energy %.6g\n", threads, 1e3 * best, st.history().back().energy);
-  }
-}
-TEST(Explore, DISABLED_LiverConvergence) {
-  static const PreprocessResult pre = preprocess(read_image(CVTMESH_SOURCE_DIR "/data/liver.inr.gz"), {});
-  CvtOptions o = points(50000);
-  o.max_iterations = 200;
-  LloydStepper st(pre, o);
-  std::printf("eps %.1f spacing %.3f sigma %.3f\n", st.resolved().epsilon_mm, st.resolved().spacing_mm, st.resolved().sigma_density_mm);
-  for (int i = 0; i < 200 && !st.converged(); ++i) {
-    const auto s = st.step();
-    if (i % 5 == 0 || st.converged()) std::printf("%d: E %.6g mean %.4f max %.3f empty %ld %.1f ms\n", i, s.energy, s.displacement_mean_mm / st.resolved().spacing_mm, s.displacement_max_mm, long(s.empty_regions), 1e3 * s.wall_s);
-  }
-  const ShallowResult r = remove_shallow_points(st.grid(), st.sites_world(), pre.boundary);
-  std::printf("kept %zu removed %zu boundary %zu\n", r.kept_world.size(), r.removed_world.size(), pre.boundary.size());
-}
-#include <fstream>
-TEST(Explore, DISABLED_LiverCached) {
-  PreprocessResult pre;
-  std::ifstream in("/tmp/cvt-liver.bin", std::ios::binary);
-  if (!in) {
-    pre = preprocess(read_image(CVTMESH_SOURCE_DIR "/data/liver.inr.gz"), {});
-    std::ofstream out("/tmp/cvt-liver.bin", std::ios::binary);
-    out.write((const char*)&pre.object.grid, sizeof(Grid));
-    out.write((const char*)pre.object.data.data(), pre.object.size());
-    out.write((const char*)pre.lfs_mm.data.data(), 4 * pre.lfs_mm.size());
-    return;
-  }
-  Grid g;
-  in.read((char*)&g, sizeof(Grid));
-  pre.object = Mask(g);
-  pre.lfs_mm = Volume<float>(g);
-  in.read((char*)pre.object.data.data(), pre.object.size());
-  in.read((char*)pre.lfs_mm.data.data(), 4 * pre.lfs_mm.size());
-  CvtOptions o = points(50000);
-  o.epsilon_mm = 1e-300;
-  LloydStepper st(pre, o);
-  st.run(4);
-  std::printf("energy %.8g\n", st.history().back().energy);
 }
