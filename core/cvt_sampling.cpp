@@ -4,10 +4,8 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
-#include <cstdio>
 #include <cstring>
 #include <limits>
 #include <random>
@@ -27,13 +25,9 @@ constexpr int kPad = 8;
 // registers).
 constexpr int kBrickX = 8;
 
-// Squared distance from p to the nearest / farthest point of the box [lo, hi].
+// Distance from v to the interval [lo, hi]; squared distance from p to the farthest box point.
 inline double gap(double v, double lo, double hi) {
   return std::max(0.0, std::max(lo - v, v - hi));
-}
-inline double min_dist2(const Vec3& p, const Vec3& lo, const Vec3& hi) {
-  const double dx = gap(p.x, lo.x, hi.x), dy = gap(p.y, lo.y, hi.y), dz = gap(p.z, lo.z, hi.z);
-  return dx * dx + dy * dy + dz * dz;
 }
 inline double max_dist2(const Vec3& p, const Vec3& lo, const Vec3& hi) {
   const double dx = std::max(std::abs(p.x - lo.x), std::abs(p.x - hi.x));
@@ -302,6 +296,9 @@ double density_from_lfs(double lfs_mm, double sigma_mm) {
 }
 
 Volume<float> compute_density(const Mask& object, const Volume<float>& lfs_mm, double sigma_mm) {
+  if (!lfs_mm.grid.same_geometry(object.grid))
+    throw InputError("CVT density: the lfs field and the object have different grids");
+  if (!(sigma_mm > 0)) throw InputError("CVT density: --sigma-density must be > 0");
   Volume<float> rho(object.grid, 0.0f);
   tbb::parallel_for(std::size_t(0), object.size(), [&](std::size_t v) {
     if (object.data[v]) rho.data[v] = float(density_from_lfs(lfs_mm.data[v], sigma_mm));
@@ -348,6 +345,8 @@ LloydStepper::LloydStepper(const Mask& object, const Volume<float>& density,
       resolved_(resolve_cvt_options(options, object)),
       seed_(options.seed),
       max_iterations_(options.max_iterations) {
+  if (!density.grid.same_geometry(object.grid))
+    throw InputError("CVT sampling: the density and the object have different grids");
   pack_bricks(object, density);
 }
 
@@ -382,8 +381,9 @@ void LloydStepper::pack_bricks(const Mask& object, const Volume<float>& density)
               const std::array<int, 3> v{b.origin[0] + ii, b.origin[1] + jj, b.origin[2] + kk};
               slots[s] = -1;
               if (!g.contains(v[0], v[1], v[2]) || !object.at(v[0], v[1], v[2])) continue;
-              const double rho = std::clamp(double(density.at(v[0], v[1], v[2])), 0.0, 1.0);
-              slots[s] = std::int32_t(std::lround(rho * kWeightScale));
+              const float rho = density.at(v[0], v[1], v[2]);  // NaN, < 0 → 0; > 1 → 1
+              slots[s] =
+                  rho > 0 ? std::int32_t(std::lround(std::min(rho, 1.0f) * kWeightScale)) : 0;
               for (int a = 0; a < 3; ++a)
                 b.lo[a] = std::min(b.lo[a], v[a]), b.hi[a] = std::max(b.hi[a], v[a]);
             }

@@ -203,3 +203,51 @@ ManifoldRepairReport repair_boundary_manifold(const std::vector<Vec3>& points,
 }
 
 }  // namespace cvt
+
+namespace cvt {
+
+std::size_t remove_small_tet_components(const std::vector<Vec3>& points, std::vector<Tet>& tets,
+                                        double fraction,
+                                        std::vector<std::array<Vec3, 4>>* removed_out) {
+  if (tets.empty()) return 0;
+  // Union tets that share a face: sort (face, tet) pairs so equal faces are adjacent.
+  std::vector<std::pair<std::array<std::int32_t, 3>, std::int32_t>> faces;
+  faces.reserve(4 * tets.size());
+  for (std::size_t t = 0; t < tets.size(); ++t)
+    for (const Triangle& f : outward_faces(tets[t])) {
+      std::array<std::int32_t, 3> key{f[0], f[1], f[2]};
+      std::sort(key.begin(), key.end());
+      faces.push_back({key, std::int32_t(t)});
+    }
+  std::sort(faces.begin(), faces.end());
+  std::vector<std::int32_t> parent(tets.size());
+  std::iota(parent.begin(), parent.end(), 0);
+  auto find = [&](std::int32_t x) {
+    while (parent[x] != x) x = parent[x] = parent[parent[x]];
+    return x;
+  };
+  for (std::size_t i = 1; i < faces.size(); ++i)
+    if (faces[i].first == faces[i - 1].first) {
+      const std::int32_t a = find(faces[i].second), b = find(faces[i - 1].second);
+      if (a != b) parent[std::max(a, b)] = std::min(a, b);  // smallest index as root: deterministic
+    }
+  const TetMesh view{points, {}, {}};
+  std::vector<double> volume(tets.size(), 0.0);
+  for (std::size_t t = 0; t < tets.size(); ++t) volume[find(std::int32_t(t))] += signed_volume(view, tets[t]);
+  const double largest = *std::max_element(volume.begin(), volume.end());
+  std::vector<Tet> kept;
+  kept.reserve(tets.size());
+  for (std::size_t t = 0; t < tets.size(); ++t) {
+    if (volume[find(std::int32_t(t))] >= fraction * largest) {
+      kept.push_back(tets[t]);
+    } else if (removed_out) {
+      removed_out->push_back({points[tets[t][0]], points[tets[t][1]], points[tets[t][2]],
+                              points[tets[t][3]]});
+    }
+  }
+  const std::size_t removed = tets.size() - kept.size();
+  tets.swap(kept);
+  return removed;
+}
+
+}  // namespace cvt

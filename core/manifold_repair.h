@@ -32,3 +32,14 @@ ManifoldRepairReport repair_boundary_manifold(const std::vector<Vec3>& points,
                                               std::vector<std::array<Vec3, 4>>* removed = nullptr);
 
 }  // namespace cvt
+
+namespace cvt {
+
+// Drops face-connected groups of tets whose volume is below `fraction` of the largest group's
+// (stray slivers left by the rules above); returns how many tets went. Removing a whole group
+// never breaks the manifoldness of the others.
+std::size_t remove_small_tet_components(const std::vector<Vec3>& points, std::vector<Tet>& tets,
+                                        double fraction,
+                                        std::vector<std::array<Vec3, 4>>* removed = nullptr);
+
+}  // namespace cvt

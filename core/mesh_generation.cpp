@@ -123,14 +123,21 @@ std::vector<Vec3> compute_poles(const std::vector<Vec3>& surface) {
 
 MeshGenerationResult build_delaunay_mesh(const std::vector<Vec3>& surface,
                                          const std::vector<Vec3>& interior,
-                                         const InsideFunction& inside,
+                                         const OccupancyFunction& occupancy,
                                          const MeshGenerationOptions& options,
                                          const Progress& progress) {
   if (surface.size() < 4) throw InputError("mesh generation: fewer than 4 surface samples");
   MeshGenerationResult out;
   progress("poles", 0.0);
-  for (const Vec3& pole : compute_poles(surface))
-    (inside(pole) ? out.interior_poles : out.exterior_poles).push_back(pole);
+  for (const Vec3& pole : compute_poles(surface)) {
+    const double o = occupancy(pole);
+    if (o >= options.inside_from)
+      out.interior_poles.push_back(pole);
+    else if (o < options.pole_outside_below)
+      out.exterior_poles.push_back(pole);
+    else
+      ++out.near_surface_poles;
+  }
 
   progress("Delaunay", 0.3);
   const int nb = int(surface.size()), ni = int(interior.size());
@@ -171,7 +178,7 @@ MeshGenerationResult build_delaunay_mesh(const std::vector<Vec3>& surface,
         Vec3 centroid{0, 0, 0};
         std::array<Vec3, 4> corners;
         for (int k = 0; k < 4; ++k) centroid += corners[k] = to_vec(c->vertex(k)->point());
-        if (!inside(centroid / 4.0)) {
+        if (occupancy(centroid / 4.0) < options.inside_from) {
           ++out.removed_by_centroid;
           out.removed_outside.push_back(corners);
           continue;
@@ -193,6 +200,8 @@ MeshGenerationResult build_delaunay_mesh(const std::vector<Vec3>& surface,
   points.insert(points.end(), interior.begin(), interior.end());
   if (options.repair_manifold)
     out.repair = repair_boundary_manifold(points, kept, &out.removed_by_repair);
+  out.removed_small_components =
+      remove_small_tet_components(points, kept, options.min_component_fraction, &out.removed_by_repair);
 
   // Keep only referenced samples, in input order (B first, then I), for a deterministic mesh.
   std::vector<int> new_index(std::size_t(nb + ni), -1);

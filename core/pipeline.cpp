@@ -52,6 +52,12 @@ CvtOptions cvt_options(const Parameters& p, double default_spacing_mm) {
   return o;
 }
 
+MeshGenerationOptions mesh_options(const Parameters& p) {
+  MeshGenerationOptions o;
+  o.min_component_fraction = p.remove_small_components ? p.min_component_fraction : 0.0;
+  return o;
+}
+
 Stage first_changed_stage(const Parameters& a, const Parameters& b) {
   // Compare each stage's own options; stages are listed upstream first.
   const auto same_pre = [&] {
@@ -144,16 +150,16 @@ void Pipeline::run_stage(Stage s, const Progress& progress) {
           lloyd_->sites_world(), lloyd_->owners_of(preprocess_->boundary)));
       break;
     case Stage::mesh: {
-      // Inside: the smoothed indicator's 0.5 level (the same surface samples are projected on).
       const Volume<float>& indicator = preprocess_->indicator;
-      auto inside = [&indicator](const Vec3& world) {
+      auto occupancy = [&indicator](const Vec3& world) {
         const Vec3 idx = indicator.grid.world_to_index(world);
         for (int a = 0; a < 3; ++a)
-          if (!(idx[a] >= 0 && idx[a] <= indicator.grid.dims[a] - 1)) return false;
-        return sample_trilinear(indicator, idx) >= 0.5f;
+          if (!(idx[a] >= 0 && idx[a] <= indicator.grid.dims[a] - 1)) return 0.0;
+        return double(sample_trilinear(indicator, idx));
       };
       mesh_ = std::make_unique<MeshGenerationResult>(
-          build_delaunay_mesh(surface_->world, shallow_->kept_world, inside, {}, progress));
+          build_delaunay_mesh(surface_->world, shallow_->kept_world, occupancy,
+                              mesh_options(parameters_), progress));
       break;
     }
     case Stage::evaluate:

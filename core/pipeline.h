@@ -34,6 +34,7 @@ Stage first_changed_stage(const Parameters& a, const Parameters& b);
 PreprocessOptions preprocess_options(const Parameters& p);
 SurfaceSamplingOptions surface_options(const Parameters& p);
 CvtOptions cvt_options(const Parameters& p, double default_spacing_mm);
+MeshGenerationOptions mesh_options(const Parameters& p);
 
 struct StageRecord {
   std::string name;

@@ -52,6 +52,8 @@ nlohmann::json run_report(const Pipeline& pipe) {
   if (const ShallowResult* s = pipe.shallow()) counts["shallow_removed"] = s->removed_world.size();
   if (const MeshGenerationResult* m = pipe.mesh()) {
     counts["exterior_poles"] = m->exterior_poles.size();
+    counts["interior_poles"] = m->interior_poles.size();
+    counts["near_surface_poles"] = m->near_surface_poles;
     counts["vertices"] = m->mesh.vertices.size();
     counts["tets"] = m->mesh.tets.size();
     counts["delaunay_tets"] = m->delaunay_tets;
@@ -60,6 +62,7 @@ nlohmann::json run_report(const Pipeline& pipe) {
     counts["unused_samples"] = m->unused_samples;
     counts["pinched_samples_removed"] = m->pinched_samples.size();
     counts["removed_by_repair"] = m->removed_by_repair.size();
+    counts["removed_small_components"] = m->removed_small_components;
     counts["repair_passes"] = m->repair.passes;
   }
   j["counts"] = counts;

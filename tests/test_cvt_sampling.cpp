@@ -161,11 +161,22 @@ TEST(LloydStepper, UniformDensityGivesEvenSpacing) {
   const double cv_random = coefficient_of_variation(nn_distances(st.sites_local()));
   st.run(150);
   const double cv_cvt = coefficient_of_variation(nn_distances(st.sites_local()));
-  // Measured: random ≈ 0.5 (Poisson points), after 150 iterations ≈ 0.06 (seeds 1–5 give
-  // 0.05–0.08; the sites near the faces are a little closer than those inside). 0.12 leaves room
-  // for other seeds while still failing on anything short of a good CVT.
-  EXPECT_GT(cv_random, 0.35);
-  EXPECT_LT(cv_cvt, 0.12) << "random " << cv_random;
+  // Measured on this cube, seeds 1–5: ρ-sampled random points 0.39–0.42; after 20 iterations
+  // 0.063–0.073, after 80 or more 0.052–0.068 (the discrete Lloyd reaches a fixed point; sites
+  // along the faces sit a little closer than inside, so a bounded CVT never reaches 0). 0.10
+  // leaves room for other seeds and platforms yet fails anything short of a converged CVT
+  // (after 5 iterations it is still ~0.10).
+  EXPECT_GT(cv_random, 0.3);
+  EXPECT_LT(cv_cvt, 0.10) << "random " << cv_random;
+}
+
+TEST(LloydStepper, DensityMustMatchObjectGrid) {
+  const PreprocessResult pre = small_sphere_object();
+  Grid other = pre.object.grid;
+  other.dims[0] += 1;
+  EXPECT_THROW(LloydStepper(pre.object, Volume<float>(other, 1.0f), points(10)), InputError);
+  CvtOptions none;  // neither a spacing nor a count
+  EXPECT_THROW(LloydStepper(pre, none), InputError);
 }
 
 TEST(LloydStepper, DeterministicForSeedAndThreadCount) {

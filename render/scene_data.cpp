@@ -1,0 +1,113 @@
+#include "scene_data.h"
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+namespace cvt::render {
+
+std::shared_ptr<const LloydState> make_lloyd_state(const LloydStepper& stepper) {
+  auto s = std::make_shared<LloydState>();
+  s->grid = stepper.grid();
+  s->sites_world = stepper.sites_world();
+  s->sites_local = stepper.sites_local();
+  s->history = stepper.history();
+  s->resolved = stepper.resolved();
+  s->converged = stepper.converged();
+  return s;
+}
+
+std::shared_ptr<const VolumeLayers> make_volume_layers(const PreprocessResult& pre,
+                                                       const Grid& image_grid) {
+  auto v = std::make_shared<VolumeLayers>();
+  v->grid = pre.object.grid;
+  // The crop is a sub-grid (same spacing and direction), so its origin sits on a voxel of the
+  // image grid.
+  const Vec3 at = image_grid.world_to_index(v->grid.origin);
+  for (int a = 0; a < 3; ++a) v->offset[a] = int(std::lround(at[a]));
+  v->object = pre.object;
+  v->lfs_mm = pre.lfs_mm;
+  v->medial_axis = pre.medial_axis;
+  v->lfs_bounds = pre.lfs_bounds;
+  v->object_surface = marching_cubes(pre.object);
+  return v;
+}
+
+std::shared_ptr<const MeshLayers> make_mesh_layers(const MeshGenerationResult& result) {
+  auto m = std::make_shared<MeshLayers>();
+  m->mesh = result.mesh;
+  m->neighbours = compute_tet_neighbours(m->mesh);
+  m->exterior_poles = result.exterior_poles;
+  for (int k = 0; k < kMeasureCount; ++k) {
+    m->measures[k] = tet_measure(m->mesh, Measure(k));
+  }
+  const double inf = std::numeric_limits<double>::infinity();
+  m->lo = {inf, inf, inf};
+  m->hi = {-inf, -inf, -inf};
+  for (const Vec3& p : m->mesh.vertices)
+    for (int a = 0; a < 3; ++a) {
+      m->lo[a] = std::min(m->lo[a], p[a]);
+      m->hi[a] = std::max(m->hi[a], p[a]);
+    }
+  return m;
+}
+
+std::shared_ptr<const SceneData> SceneDataBuilder::update(const Pipeline& pipeline,
+                                                          std::shared_ptr<const Image> image) {
+  auto s = std::make_shared<SceneData>();
+  const SceneData* prev = last_.get();
+  // Stages that ran since the last snapshot: their results are new objects to copy.
+  std::array<bool, kStageCount> ran{};
+  const auto& records = pipeline.records();
+  for (std::size_t i = records_seen_; i < records.size(); ++i)
+    for (int st = 0; st < kStageCount; ++st)
+      if (records[i].name == stage_name(Stage(st))) ran[st] = true;
+  records_seen_ = records.size();
+  const bool new_image = !prev || prev->image != image;
+
+  s->image = image;
+  if (image && new_image) {
+    s->value_range = value_range(*image);
+    if (image->integer_valued) s->label_counts = label_histogram(*image);
+  } else if (prev) {
+    s->value_range = prev->value_range;
+    s->label_counts = prev->label_counts;
+  }
+  s->parameters = pipeline.parameters();
+  for (int st = 0; st < kStageCount; ++st) s->stale[st] = pipeline.is_stale(Stage(st));
+  s->records = records;
+  s->default_interior_spacing_mm = pipeline.default_interior_spacing_mm();
+
+  // A part is kept from the previous snapshot when its result still exists and its stage did
+  // not run again; it is rebuilt when it ran; it is dropped when the result is gone (stale).
+  auto pick = [&](auto prev_part, bool exists, bool rerun, auto make) {
+    using Ptr = decltype(prev_part);
+    if (!exists) return Ptr{};
+    if (prev_part && !rerun && !new_image) return prev_part;
+    return Ptr(make());
+  };
+  const PreprocessResult* pre = pipeline.preprocess();
+  s->volumes = pick(prev ? prev->volumes : nullptr, pre != nullptr, ran[int(Stage::preprocess)],
+                    [&] { return make_volume_layers(*pre, image->grid()); });
+  const SurfaceSamples* surf = pipeline.surface();
+  s->surface_samples =
+      pick(prev ? prev->surface_samples : nullptr, surf != nullptr, ran[int(Stage::surface)],
+           [&] { return std::make_shared<const std::vector<Vec3>>(surf->world); });
+  // Lloyd can move without a stage record (step_lloyd), and its state is small: always copy.
+  if (pipeline.lloyd()) s->lloyd = make_lloyd_state(*pipeline.lloyd());
+  const ShallowResult* sh = pipeline.shallow();
+  s->shallow = pick(prev ? prev->shallow : nullptr, sh != nullptr, ran[int(Stage::shallow)],
+                    [&] { return std::make_shared<const ShallowResult>(*sh); });
+  const MeshGenerationResult* mesh = pipeline.mesh();
+  s->mesh = pick(prev ? prev->mesh : nullptr, mesh != nullptr, ran[int(Stage::mesh)],
+                 [&] { return make_mesh_layers(*mesh); });
+  const bool evaluated = ran[int(Stage::evaluate)];
+  s->quality = pick(prev ? prev->quality : nullptr, pipeline.quality() != nullptr, evaluated,
+                    [&] { return std::make_shared<const QualityReport>(*pipeline.quality()); });
+  s->fidelity = pick(prev ? prev->fidelity : nullptr, pipeline.fidelity() != nullptr, evaluated,
+                     [&] { return std::make_shared<const FidelityReport>(*pipeline.fidelity()); });
+  last_ = s;
+  return s;
+}
+
+}  // namespace cvt::render

@@ -1,0 +1,87 @@
+// What the views draw, copied out of the Pipeline. The Pipeline is not thread-safe and lives on
+// the worker thread; after each job (and after each Lloyd iteration) the worker builds an
+// immutable SceneData snapshot and hands it to the UI thread, which only ever reads snapshots.
+// Parts whose stage did not run again are shared with the previous snapshot (shared_ptr), so a
+// Lloyd step does not copy the volumes again. GL-free.
+#pragma once
+
+#include <array>
+#include <cstdint>
+#include <map>
+#include <memory>
+#include <vector>
+
+#include "clip_selection.h"
+#include "marching_cubes.h"
+#include "pipeline.h"
+
+namespace cvt::render {
+
+// Stage 1 results on the cropped grid, for the slice overlays and the early 3D surface.
+struct VolumeLayers {
+  Grid grid;                        // the cropped (and padded) object grid
+  std::array<int, 3> offset{};      // image voxel of crop voxel (0,0,0)
+  Mask object;                      // 1 inside
+  Volume<float> lfs_mm;             // clamped local feature size
+  Mask medial_axis;                 // 1 inner, 2 outer
+  LfsBounds lfs_bounds{0, 0};       // the colormap range of lfs_mm
+  TriangleSurface object_surface;   // marching cubes of `object` (world mm)
+};
+
+// The Lloyd state (stage 3) at one iteration.
+struct LloydState {
+  Grid grid;                        // the cropped grid the sites live on
+  std::vector<Vec3> sites_world;    // mm
+  std::vector<Vec3> sites_local;    // mm, spacing ⊙ index (for discrete Voronoi labels)
+  std::vector<IterationStats> history;
+  CvtResolved resolved;
+  bool converged = false;
+};
+
+// Per-tet values of every Measure, in enum order, for colouring and highlighting.
+inline constexpr int kMeasureCount = 6;
+struct MeshLayers {
+  TetMesh mesh;                     // world mm
+  TetNeighbours neighbours;         // for the faces a clip exposes
+  std::vector<Vec3> exterior_poles;
+  std::array<std::vector<double>, kMeasureCount> measures;  // exactly as core bins them
+  Vec3 lo, hi;                      // bounding box of the vertices
+};
+
+struct SceneData {
+  std::shared_ptr<const Image> image;            // null before an image is loaded
+  std::map<std::int64_t, std::size_t> label_counts;  // integer images: voxels per label
+  ValueRange value_range;
+  Parameters parameters;                         // as applied to the pipeline
+  std::array<bool, kStageCount> stale{};         // Pipeline::is_stale per stage
+  std::vector<StageRecord> records;
+  double default_interior_spacing_mm = 0;
+  std::shared_ptr<const VolumeLayers> volumes;
+  std::shared_ptr<const std::vector<Vec3>> surface_samples;  // B (world mm)
+  std::shared_ptr<const LloydState> lloyd;
+  std::shared_ptr<const ShallowResult> shallow;
+  std::shared_ptr<const MeshLayers> mesh;
+  std::shared_ptr<const QualityReport> quality;
+  std::shared_ptr<const FidelityReport> fidelity;
+};
+
+// Builds snapshots of one Pipeline, reusing what did not change. Call only from the thread that
+// owns the Pipeline, between its operations.
+class SceneDataBuilder {
+ public:
+  // `image` is the image the pipeline was given (shared so snapshots keep it alive).
+  std::shared_ptr<const SceneData> update(const Pipeline& pipeline,
+                                          std::shared_ptr<const Image> image);
+  std::shared_ptr<const SceneData> last() const { return last_; }
+
+ private:
+  std::shared_ptr<const SceneData> last_;
+  std::size_t records_seen_ = 0;
+};
+
+std::shared_ptr<const LloydState> make_lloyd_state(const LloydStepper& stepper);
+std::shared_ptr<const VolumeLayers> make_volume_layers(const PreprocessResult& pre,
+                                                       const Grid& image_grid);
+std::shared_ptr<const MeshLayers> make_mesh_layers(const MeshGenerationResult& result);
+
+}  // namespace cvt::render
