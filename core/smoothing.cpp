@@ -34,6 +34,8 @@ void convolve_axis(Volume<float>& f, int axis, const std::vector<float>& kernel)
       start[a2] = c2;
       float* base = &f.data[g.linear(start[0], start[1], start[2])];
       for (int t = 0; t < n; ++t) line[t] = base[t * stride];
+      // Most lines of a crop lie wholly inside or outside: convolution leaves them unchanged.
+      if (std::all_of(line.begin(), line.end(), [&](float v) { return v == line[0]; })) continue;
       for (int t = 0; t < n; ++t) {
         float acc = 0;
         for (int s = -radius; s <= radius; ++s) acc += kernel[s + radius] * line[std::clamp(t + s, 0, n - 1)];
