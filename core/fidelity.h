@@ -41,7 +41,7 @@ SurfaceDistance surface_distance(const TetMesh& a, const TetMesh& b,
 TriangleSurface boundary_surface(const TetMesh& mesh);
 
 struct FidelityOptions {
-  double sample_spacing_voxels = 0.5;  // sample spacing as a fraction of the smallest voxel spacing
+  double sample_spacing_voxels = 1.0;  // sample spacing as a fraction of the smallest voxel spacing
   std::size_t max_samples = 4000000;   // area samples per surface (see SurfaceDistanceOptions)
 };
 
