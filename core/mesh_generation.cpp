@@ -51,6 +51,21 @@ Tet canonical(Tet t) {
   return r;
 }
 
+// A deterministic offset in [−j, j]³ from a splitmix64 hash of (seed, index).
+Vec3 jitter(int index, const MeshGenerationOptions& options) {
+  std::uint64_t x = options.seed * 0x9E3779B97F4A7C15ULL + std::uint64_t(index);
+  Vec3 out;
+  for (int a = 0; a < 3; ++a) {
+    x += 0x9E3779B97F4A7C15ULL;
+    std::uint64_t z = x;
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+    z ^= z >> 31;
+    out[a] = (double(z >> 11) / double(1ULL << 53) * 2.0 - 1.0) * options.interior_jitter_mm;
+  }
+  return out;
+}
+
 }  // namespace
 
 std::vector<Vec3> compute_poles(const std::vector<Vec3>& surface) {
@@ -141,10 +156,12 @@ MeshGenerationResult build_delaunay_mesh(const std::vector<Vec3>& surface,
 
   progress("Delaunay", 0.3);
   const int nb = int(surface.size()), ni = int(interior.size());
+  std::vector<Vec3> nudged(interior);
+  for (int i = 0; i < ni; ++i) nudged[i] += jitter(i, options);
   std::vector<std::pair<Point, int>> pts;
   pts.reserve(surface.size() + interior.size() + out.exterior_poles.size());
   for (int i = 0; i < nb; ++i) pts.push_back({to_point(surface[i]), i});
-  for (int i = 0; i < ni; ++i) pts.push_back({to_point(interior[i]), nb + i});
+  for (int i = 0; i < ni; ++i) pts.push_back({to_point(nudged[i]), nb + i});
   for (std::size_t i = 0; i < out.exterior_poles.size(); ++i)
     pts.push_back({to_point(out.exterior_poles[i]), -1});  // −1 marks a pole
   Delaunay dt = triangulate(pts);
@@ -191,13 +208,13 @@ MeshGenerationResult build_delaunay_mesh(const std::vector<Vec3>& surface,
     if (pinched.empty()) break;
     for (std::int32_t v : pinched) {
       dt.remove(handle[v]);
-      out.pinched_samples.push_back(v < nb ? surface[v] : interior[v - nb]);
+      out.pinched_samples.push_back(v < nb ? surface[v] : nudged[v - nb]);
     }
   }
 
   progress("manifold repair", 0.9);
   std::vector<Vec3> points(surface);
-  points.insert(points.end(), interior.begin(), interior.end());
+  points.insert(points.end(), nudged.begin(), nudged.end());
   if (options.repair_manifold)
     out.repair = repair_boundary_manifold(points, kept, &out.removed_by_repair);
   out.removed_small_components =
@@ -213,7 +230,7 @@ MeshGenerationResult build_delaunay_mesh(const std::vector<Vec3>& surface,
       continue;
     }
     new_index[v] = int(out.mesh.vertices.size());
-    out.mesh.vertices.push_back(v < nb ? surface[v] : interior[v - nb]);
+    out.mesh.vertices.push_back(points[v]);
     out.vertex_source.push_back(v);
   }
   out.mesh.tets.reserve(kept.size());

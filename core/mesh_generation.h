@@ -8,6 +8,7 @@
 #pragma once
 
 #include <cstddef>
+#include <cstdint>
 #include <functional>
 #include <vector>
 
@@ -30,6 +31,11 @@ struct MeshGenerationOptions {
   // inside; 0.3 gave the smallest Hausdorff distance on the liver (0.5: 6.2 mm, 0.3: 4.7 mm).
   double inside_from = 0.3;
   bool remove_outside_tets = true;  // rule 2 on/off
+  // Lloyd sites can be exactly coplanar and cospherical (centroids of symmetric voxel sets);
+  // Delaunay then has flat tets. Interior points are nudged by up to this (mm), with a
+  // deterministic hash of their index and the seed, before triangulation.
+  double interior_jitter_mm = 1e-3;
+  std::uint64_t seed = 1;
   bool repair_manifold = true;      // rule 3: delete samples where the boundary pinches, then
                                     // peel whatever pinch remains, so it is a closed 2-manifold
   int max_pinch_passes = 10;        // rounds of sample deletion before peeling takes over

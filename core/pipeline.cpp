@@ -55,6 +55,7 @@ CvtOptions cvt_options(const Parameters& p, double default_spacing_mm) {
 MeshGenerationOptions mesh_options(const Parameters& p) {
   MeshGenerationOptions o;
   o.min_component_fraction = p.remove_small_components ? p.min_component_fraction : 0.0;
+  o.seed = p.seed;
   return o;
 }
 
