@@ -39,6 +39,75 @@ class Info(unittest.TestCase):
         self.assertIn("3160496", r.stdout)
 
 
+class MeshLiver(unittest.TestCase):
+    """The real liver end to end with default parameters (issue 4's acceptance figures)."""
+
+    @classmethod
+    def setUpClass(cls):
+        cls.dir = tempfile.TemporaryDirectory()
+        cls.mesh = os.path.join(cls.dir.name, "liver.mesh")
+        cls.report_path = os.path.join(cls.dir.name, "report.json")
+        r = run("mesh", LIVER, "-o", cls.mesh, "--report", cls.report_path, "--threads", "2", "-q")
+        assert r.returncode == 0, r.stderr
+        with open(cls.report_path) as f:
+            cls.report = json.load(f)
+
+    @classmethod
+    def tearDownClass(cls):
+        cls.dir.cleanup()
+
+    def test_valid_closed_one_component(self):
+        v = self.report["quality"]["validity"]
+        self.assertTrue(v["valid"])
+        self.assertTrue(v["boundary_closed_manifold"])
+        self.assertEqual(v["boundary_components"], 1)
+        self.assertEqual(v["inverted"], 0)
+        self.assertEqual(v["zero_volume"], 0)
+        self.assertEqual(v["unreferenced_vertices"], 0)
+
+    def test_fidelity(self):
+        f = self.report["fidelity"]
+        self.assertLess(abs(f["volume_error_percent"]), 2.0)
+        self.assertLess(f["p95_mm"], 1.0)
+
+    def test_table_one_at_least_as_good_as_the_paper(self):
+        m = self.report["quality"]["measures"]
+        self.assertLessEqual(m["v_over_rmc3"]["bins_percent"][0], 2.59)
+        self.assertLessEqual(m["gradient_error"]["bins_percent"][0], 7.66)
+        self.assertLessEqual(m["condition_number"]["bins_percent"][0], 6.83)
+
+    def test_report_layout(self):
+        r = self.report
+        for key in ["parameters", "stages", "lloyd", "counts", "quality", "fidelity"]:
+            self.assertIn(key, r)
+        for key in ["surface_samples", "interior_samples", "shallow_removed", "exterior_poles",
+                    "vertices", "tets"]:
+            self.assertGreater(r["counts"][key], 0, key)
+        energies = [i["energy"] for i in r["lloyd"]["iterations"]]
+        self.assertTrue(all(b <= a for a, b in zip(energies, energies[1:])), energies)
+
+    def test_quality_command_reads_it_back(self):
+        r = run("quality", self.mesh, "--json")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        q = json.loads(r.stdout)
+        self.assertEqual(q["tets"], self.report["counts"]["tets"])
+        self.assertEqual(q["validity"]["valid"], True)
+
+    def test_same_input_same_bytes(self):
+        again = os.path.join(self.dir.name, "again.mesh")
+        preset = os.path.join(self.dir.name, "preset.json")
+        r = run("mesh", LIVER, "-o", again, "--threads", "2", "-q", "--save-preset", preset)
+        self.assertEqual(r.returncode, 0, r.stderr)
+        with open(self.mesh, "rb") as a, open(again, "rb") as b:
+            self.assertTrue(a.read() == b.read(), "two runs gave different meshes")
+        # The saved preset reproduces the run too.
+        third = os.path.join(self.dir.name, "third.mesh")
+        r = run("mesh", LIVER, "-o", third, "--preset", preset, "-q")
+        self.assertEqual(r.returncode, 0, r.stderr)
+        with open(self.mesh, "rb") as a, open(third, "rb") as b:
+            self.assertTrue(a.read() == b.read(), "the saved preset gave a different mesh")
+
+
 class BadInput(unittest.TestCase):
     """Each bad input: non-zero exit, exactly one line on stderr naming the file, no crash.
     (`mesh` runs with -q so its progress lines do not count.)"""
