@@ -1,5 +1,6 @@
 // Format dispatch, atomic writing and the pixel conversions shared by the per-library readers.
 #include "image_io.h"
+#include "image_io_internal.h"
 
 #include <unistd.h>
 #include <zlib.h>

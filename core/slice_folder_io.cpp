@@ -9,17 +9,10 @@
 
 #include "errors.h"
 #include "image_io.h"
+#include "image_io_internal.h"
 #include "memory.h"
 
 namespace cvt {
-namespace io_internal {  // defined in image_io.cpp
-std::string one_line(const std::string& text);
-bool is_integer_pixel_type(const std::string& type);
-std::size_t checked_voxel_count(const std::array<unsigned long long, 3>& dims,
-                                const std::string& path);
-void convert_to_float(const void* src, const std::string& src_type, std::size_t count, float* dst,
-                      bool labels, const std::string& path);
-}  // namespace io_internal
 
 namespace {
 using namespace io_internal;
