@@ -9,7 +9,6 @@
 
 #include <array>
 #include <cstdint>
-#include <memory>
 #include <vector>
 
 #include "preprocess.h"
@@ -43,8 +42,9 @@ Volume<float> compute_density(const Mask& object, const Volume<float>& lfs_mm, d
 struct CvtResolved {
   std::int64_t sites = 0;       // N = volume / (0.7698 · spacing³), or interior_points
   double spacing_mm = 0;        // the spacing N corresponds to (given or derived from N)
-  double sigma_density_mm = 0;  // auto = spacing_mm: where lfs < ~2 spacings the part is so
-                                // thin that surface samples fill it, so ρ drops there
+  double sigma_density_mm = 0;  // auto = spacing_mm: ρ = 0.99 at lfs = 3 spacings, 0.86 at 2,
+                                // 0.39 at 1: parts thinner than ~2 spacings, which the surface
+                                // samples already fill, get fewer interior sites
   double epsilon_mm = 0;        // auto = 0.01 · spacing · N: mean displacement < 1 % spacing
   double object_volume_mm3 = 0;
 };
@@ -53,8 +53,9 @@ CvtResolved resolve_cvt_options(const CvtOptions& options, const Mask& object);
 
 struct IterationStats {
   int iteration = 0;  // 0-based
-  double energy = 0;  // Σ_voxels ρ(p)·|p − z_owner|² (mm²·voxels), owners and sites
-                      // as they were BEFORE this iteration's move; non-increasing
+  double energy = 0;  // Σ over object voxels p of ρ(p)·|p − z_owner(p)|² (mm², ρ quantised as
+                      // above), for the sites BEFORE this iteration's move and their exact
+                      // nearest-site owners; never increases from one iteration to the next
   double displacement_sum_mm = 0;  // Σ |z* − z| over the sites (paper's delta)
   double displacement_mean_mm = 0;
   double displacement_max_mm = 0;
@@ -82,8 +83,8 @@ class LloydStepper {
   void initialize();
   // One Lloyd iteration: assign voxels, move sites to centroids.
   IterationStats step(const Progress& progress = {});
-  // Up to k iterations, fewer if converged; checks cancellation between iterations. Returns the
-  // number done.
+  // Up to k iterations, stopping after one that converges; checks cancellation before each
+  // (and step() inside). Returns the number done. A cancelled iteration leaves no trace.
   int run(int k, const Progress& progress = {});
   // Until Σ displacement < ε or max_iterations iterations in total.
   int run_to_convergence(const Progress& progress = {});
