@@ -70,6 +70,12 @@ ParameterOptions::ParameterOptions(CLI::App* cmd) {
   bind(cmd->add_option("--seed", given_.seed, "Seed of every random choice"), &Parameters::seed);
   bind(cmd->add_option("--threads", given_.threads, "Worker threads; 0 = all cores"),
        &Parameters::threads);
+  bind(cmd->add_option("--max-points", given_.max_points,
+                       "Refuse runs needing more interior points than this"),
+       &Parameters::max_points);
+  bind(cmd->add_option("--max-memory", given_.max_memory_mb,
+                       "Refuse runs estimated to need more memory (MB); 0 = available"),
+       &Parameters::max_memory_mb);
 }
 
 Parameters ParameterOptions::resolve() const {

@@ -38,6 +38,9 @@ struct Parameters {
   // Everywhere.
   std::uint64_t seed = 1;                 // every random choice is seeded from this
   int threads = 0;                        // worker threads; 0 = all cores
+  // Guards against parameters that would explode (r → 0, a tiny spacing) or not fit.
+  std::int64_t max_points = 5000000;      // refuse runs needing more interior points than this
+  double max_memory_mb = 0;               // refuse runs estimated above this; 0 = available RAM
 
   bool operator==(const Parameters&) const = default;
 };

@@ -30,6 +30,7 @@ PreprocessOptions preprocess_options(const Parameters& p) {
   o.medial_axis.min_angle_deg = p.medial_min_angle_deg;
   o.lfs.min_mm = p.lfs_min_mm;
   o.lfs.max_mm = p.lfs_max_mm;
+  o.max_bytes = std::size_t(p.max_memory_mb * 1024.0 * 1024.0);
   return o;
 }
 
@@ -125,8 +126,14 @@ double Pipeline::default_interior_spacing_mm() const {
 }
 
 void Pipeline::start_lloyd() {
-  lloyd_ = std::make_unique<LloydStepper>(*preprocess_,
-                                          cvt_options(parameters_, default_interior_spacing_mm()));
+  const CvtOptions options = cvt_options(parameters_, default_interior_spacing_mm());
+  const CvtResolved r = resolve_cvt_options(options, preprocess_->object);
+  if (r.sites > parameters_.max_points)
+    throw InputError("interior points: " + std::to_string(r.sites) + " needed (spacing " +
+                     std::to_string(r.spacing_mm) + " mm) exceed max_points = " +
+                     std::to_string(parameters_.max_points) +
+                     "; raise --interior-spacing or --max-points");
+  lloyd_ = std::make_unique<LloydStepper>(*preprocess_, options);
   lloyd_->initialize();
 }
 

@@ -21,6 +21,7 @@ struct PreprocessOptions {
   double smoothing_sigma_mm = 0;  // Gaussian σ of the smoothed indicator; 0 = auto (0.5 × max spacing)
   MedialAxisOptions medial_axis;
   LfsOptions lfs;
+  std::size_t max_bytes = 0;  // refuse when the estimate exceeds this; 0 = available memory
 };
 
 struct StepTime {

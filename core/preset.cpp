@@ -42,6 +42,8 @@ void for_each_field(Parameters& p, F&& f) {
   f("optimize", p.optimize);
   f("seed", p.seed);
   f("threads", p.threads);
+  f("max_points", p.max_points);
+  f("max_memory_mb", p.max_memory_mb);
 }
 
 const char* type_name(const json& j) { return j.type_name(); }
@@ -123,6 +125,9 @@ void validate(const Parameters& p) {
   require(p.optimize == "none" || p.optimize == "default", "optimize",
           "must be \"none\" or \"default\"");
   require(p.threads >= 0 && p.threads <= 1024, "threads", "must be in 0..1024 (0 = all cores)");
+  require(p.max_points > 0, "max_points", "must be > 0");
+  require(finite(p.max_memory_mb) && p.max_memory_mb >= 0, "max_memory_mb",
+          "must be >= 0 (0 = available memory)");
 }
 
 json to_json(const Parameters& parameters) {

@@ -180,6 +180,18 @@ class BadInput(unittest.TestCase):
         out = self.path("liver.vtu")
         self.assert_one_line_error(run("mesh", LIVER, "-q", "--r", "1.5", "-o", out), "r: must be in (0, 1)")
 
+    def test_exploding_parameters_are_refused(self):
+        out = self.path("liver.vtu")
+        r = run("mesh", LIVER, "-q", "--interior-spacing", "0.3", "-o", out)
+        self.assert_one_line_error(r, "max_points")
+        self.assertFalse(os.path.exists(out))
+
+    def test_memory_limit(self):
+        out = self.path("liver.vtu")
+        self.assert_one_line_error(run("mesh", LIVER, "-q", "--max-memory", "10", "-o", out),
+                                   "are allowed")
+        self.assertFalse(os.path.exists(out))
+
     def test_output_folder_missing(self):
         out = self.path("no/such/folder/liver.vtu")
         self.assert_one_line_error(run("mesh", LIVER, "-q", "-o", out), "does not exist")
