@@ -2,16 +2,19 @@
 
 #include <algorithm>
 #include <cmath>
-
 #include <glm/gtc/matrix_transform.hpp>
 
 namespace cvt::render {
 
-void OrbitCamera::fit(const glm::vec3& lo, const glm::vec3& hi) {
+void OrbitCamera::fit(const glm::vec3& lo, const glm::vec3& hi, float aspect) {
   target = 0.5f * (lo + hi);
   scene_radius = std::max(0.5f * glm::length(hi - lo), 1e-3f);
-  // The bounding sphere touches the narrower (vertical) field of view, with a small margin.
-  distance = 1.08f * scene_radius / std::sin(glm::radians(0.5f * fov_y_deg));
+  // The narrower of the two fields of view decides. The bounding sphere of the box is loose
+  // for rounded organs: 0.85 of the distance at which it would touch that field frames them
+  // well (the middles of the box faces stay in view).
+  const float half_y = glm::radians(0.5f * fov_y_deg);
+  const float half_x = std::atan(std::tan(half_y) * std::max(aspect, 1e-3f));
+  distance = 0.85f * scene_radius / std::sin(std::min(half_x, half_y));
 }
 
 void OrbitCamera::orbit(float dx_px, float dy_px) {
@@ -27,14 +30,16 @@ glm::vec3 OrbitCamera::forward() const {
                     std::sin(pitch));
 }
 
-glm::vec3 OrbitCamera::eye() const { return target - distance * forward(); }
+glm::vec3 OrbitCamera::eye() const {
+  return target - distance * forward();
+}
 
 void OrbitCamera::pan(float dx_px, float dy_px, float viewport_h_px) {
   const glm::vec3 f = forward();
   const glm::vec3 right = glm::normalize(glm::cross(f, glm::vec3(0, 0, 1)));
   const glm::vec3 up = glm::cross(right, f);
-  const float mm_per_px = 2.0f * distance * std::tan(glm::radians(0.5f * fov_y_deg)) /
-                          std::max(viewport_h_px, 1.0f);
+  const float mm_per_px =
+      2.0f * distance * std::tan(glm::radians(0.5f * fov_y_deg)) / std::max(viewport_h_px, 1.0f);
   target += mm_per_px * (-dx_px * right + dy_px * up);
 }
 
@@ -43,7 +48,9 @@ void OrbitCamera::zoom(float steps) {
   distance = std::clamp(distance, 1e-3f * scene_radius, 100.0f * scene_radius);
 }
 
-glm::mat4 OrbitCamera::view() const { return glm::lookAt(eye(), target, glm::vec3(0, 0, 1)); }
+glm::mat4 OrbitCamera::view() const {
+  return glm::lookAt(eye(), target, glm::vec3(0, 0, 1));
+}
 
 glm::mat4 OrbitCamera::projection(float aspect) const {
   // Near/far bracket the scene sphere around the target, wherever the eye is.

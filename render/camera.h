@@ -9,8 +9,9 @@ namespace cvt::render {
 // Orbits a target point with +z up (the slice axis k of most scans is head–foot).
 class OrbitCamera {
  public:
-  // Looks at the centre of the box [lo, hi] (world mm) from a distance that shows all of it.
-  void fit(const glm::vec3& lo, const glm::vec3& hi);
+  // Looks at the centre of the box [lo, hi] (world mm) from a distance that shows all of it
+  // in a viewport of this aspect (width / height).
+  void fit(const glm::vec3& lo, const glm::vec3& hi, float aspect = 1.0f);
   // Mouse drag in pixels: horizontal turns about +z, vertical tilts (clamped short of the poles).
   void orbit(float dx_px, float dy_px);
   // Mouse drag in pixels moves the target in the view plane; viewport_h_px scales it so the
@@ -25,9 +26,9 @@ class OrbitCamera {
   glm::vec3 forward() const;  // unit vector from the eye towards the target
 
   glm::vec3 target{0.0f};
-  float distance = 1.0f;      // eye–target (mm)
-  float yaw_deg = -90.0f;     // 0 looks along −x; −90 looks along +y (from the front of a scan)
-  float pitch_deg = 15.0f;    // above the horizontal plane
+  float distance = 1.0f;    // eye–target (mm)
+  float yaw_deg = -70.0f;   // 0 looks along −x; −90 looks along +y (from the front of a scan)
+  float pitch_deg = 25.0f;  // above the horizontal plane
   float fov_y_deg = 40.0f;
   float scene_radius = 1.0f;  // half the fitted box diagonal; sets the clipping range
 };

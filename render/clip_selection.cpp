@@ -1,10 +1,10 @@
 #include "clip_selection.h"
 
-#include <algorithm>
-#include <array>
-
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
+
+#include <algorithm>
+#include <array>
 
 namespace cvt::render {
 namespace {
@@ -80,7 +80,7 @@ ClipPlane axis_clip_plane(const Vec3& lo, const Vec3& hi, int axis, double posit
   ClipPlane plane;
   plane.point = lo + (hi - lo) * std::clamp(position, 0.0, 1.0);
   plane.normal = {0, 0, 0};
-  plane.normal[axis] = flip ? -1 : 1;
+  plane.normal[axis] = flip ? 1 : -1;
   return plane;
 }
 

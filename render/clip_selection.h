@@ -41,8 +41,9 @@ std::vector<VisibleFace> visible_faces(const TetMesh& mesh, const TetNeighbours&
                                        const std::vector<std::uint8_t>& kept);
 
 // The clip plane of the viewer's controls: perpendicular to world axis `axis` (0, 1, 2) at
-// fraction `position` ∈ [0, 1] of the box [lo, hi] along it; tets beyond it are removed, or
-// the ones before it when `flip`.
+// fraction `position` ∈ [0, 1] of the box [lo, hi] along it. The tets below it (lower
+// coordinates: the side facing the default camera for axis 1) are removed, or the ones above
+// it when `flip`.
 ClipPlane axis_clip_plane(const Vec3& lo, const Vec3& hi, int axis, double position, bool flip);
 
 }  // namespace cvt::render

@@ -1,5 +1,7 @@
 #include "mesh_geometry.h"
 
+#include <cmath>
+
 namespace cvt::render {
 namespace {
 
@@ -25,7 +27,8 @@ Rgba8 measure_color(Measure m, double value) {
 }
 
 MeshSoups build_mesh_soups(const MeshLayers& layers, const ClipPlane* clip,
-                           const MeshColoring& coloring, const std::vector<std::uint8_t>* highlight) {
+                           const MeshColoring& coloring,
+                           const std::vector<std::uint8_t>* highlight) {
   const TetMesh& mesh = layers.mesh;
   MeshSoups soups;
   const std::vector<std::uint8_t> kept =
@@ -44,7 +47,8 @@ MeshSoups build_mesh_soups(const MeshLayers& layers, const ClipPlane* clip,
       if ((*highlight)[t] && kept[t]) {
         any_highlight = true;
         ++soups.highlighted_tets;
-        for (int f = 0; f < 4; ++f) append_face(mesh, mesh.tets[t], f, coloring.highlight, soups.solid);
+        for (int f = 0; f < 4; ++f)
+          append_face(mesh, mesh.tets[t], f, coloring.highlight, soups.solid);
       }
   std::vector<ColoredVertex>& faces_out = any_highlight ? soups.ghost : soups.solid;
   for (const VisibleFace& vf : visible_faces(mesh, layers.neighbours, kept)) {

@@ -22,11 +22,11 @@ struct ColoredVertex {
 static_assert(sizeof(ColoredVertex) == 16);
 
 struct MeshColoring {
-  std::optional<Measure> measure;         // colour the cut faces by this measure (else `cut`)
-  bool measure_on_boundary = false;       // also colour the boundary faces by the measure
-  Rgba8 surface{214, 196, 170, 255};      // boundary faces
-  Rgba8 cut{236, 226, 205, 255};          // faces exposed by the clip, without a measure
-  Rgba8 highlight{255, 60, 200, 255};     // tets selected in the quality panel
+  std::optional<Measure> measure;      // colour the cut faces by this measure (else `cut`)
+  bool measure_on_boundary = false;    // also colour the boundary faces by the measure
+  Rgba8 surface{214, 196, 170, 255};   // boundary faces
+  Rgba8 cut{236, 226, 205, 255};       // faces exposed by the clip, without a measure
+  Rgba8 highlight{255, 60, 200, 255};  // tets selected in the quality panel
 };
 
 // The colour of one value of a measure (red = bad, green = good, over measure_scale(m)).

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 
 namespace cvt::render {
 
@@ -34,25 +35,31 @@ std::vector<std::uint8_t> select_tets(const std::vector<double>& values, const T
 std::string describe(const TetSelection& s) {
   if (s.kind == TetSelection::Kind::none) return "nothing";
   const std::string name(measure_key(s.measure));
+  char text[160];
   if (s.kind == TetSelection::Kind::table1_bin) {
     static const char* bins[] = {"low", "middle", "high"};
-    return name + " Table I " + bins[std::clamp(s.index, 0, 2)] + " bin";
+    std::snprintf(text, sizeof text, "%s Table I %s bin", name.c_str(),
+                  bins[std::clamp(s.index, 0, 2)]);
+  } else {
+    const double w = (s.range[1] - s.range[0]) / std::max(s.bars, 1);
+    std::snprintf(text, sizeof text, "%s in [%.4g, %.4g)", name.c_str(), s.range[0] + s.index * w,
+                  s.range[0] + (s.index + 1) * w);
   }
-  const double w = (s.range[1] - s.range[0]) / std::max(s.bars, 1);
-  char text[128];
-  std::snprintf(text, sizeof text, " in [%.4g, %.4g)", s.range[0] + s.index * w,
-                s.range[0] + (s.index + 1) * w);
-  return name + text;
+  return text;
 }
 
 MeasureScale measure_scale(Measure m) {
   switch (m) {
     case Measure::VOverRmc3:
     case Measure::GradientError:
-    case Measure::ConditionNumber: return {0.0, regular_tet_value(m), true};
-    case Measure::MinDihedralDeg: return {0.0, regular_tet_value(m), true};
-    case Measure::MaxDihedralDeg: return {regular_tet_value(m), 180.0, false};
-    case Measure::RadiusEdge: return {regular_tet_value(m), 3.0, false};
+    case Measure::ConditionNumber:
+      return {0.0, regular_tet_value(m), true};
+    case Measure::MinDihedralDeg:
+      return {0.0, regular_tet_value(m), true};
+    case Measure::MaxDihedralDeg:
+      return {regular_tet_value(m), 180.0, false};
+    case Measure::RadiusEdge:
+      return {regular_tet_value(m), 3.0, false};
   }
   return {};
 }
@@ -66,8 +73,7 @@ bool measure_from_key(const std::string& key, Measure& out) {
   return false;
 }
 
-std::vector<std::size_t> measure_histogram(const std::vector<double>& values, Measure m,
-                                           int bars) {
+std::vector<std::size_t> measure_histogram(const std::vector<double>& values, Measure m, int bars) {
   const MeasureScale s = measure_scale(m);
   std::vector<std::size_t> h(std::size_t(std::max(bars, 1)), 0);
   for (double v : values) ++h[histogram_bar(v, s.lo, s.hi, bars)];

@@ -1,8 +1,11 @@
 #include "scene_data.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <limits>
+
+#include "surface_preview.h"
 
 namespace cvt::render {
 
@@ -29,7 +32,7 @@ std::shared_ptr<const VolumeLayers> make_volume_layers(const PreprocessResult& p
   v->lfs_mm = pre.lfs_mm;
   v->medial_axis = pre.medial_axis;
   v->lfs_bounds = pre.lfs_bounds;
-  v->object_surface = marching_cubes(pre.object);
+  v->object_surface = object_surface_preview(pre.object, pre.boundary.size());
   return v;
 }
 
@@ -52,6 +55,30 @@ std::shared_ptr<const MeshLayers> make_mesh_layers(const MeshGenerationResult& r
   return m;
 }
 
+Stage stage_of_record(const std::string& name) {
+  for (int st = 0; st < kStageCount; ++st)
+    if (name == stage_name(Stage(st))) return Stage(st);
+  if (name == "quality" || name == "fidelity") return Stage::evaluate;
+  return Stage::count;
+}
+
+double stage_seconds(const std::vector<StageRecord>& records, Stage stage) {
+  // The latest run: walk back over the records of this stage that follow each other.
+  double total = -1;
+  bool found = false;
+  for (auto it = records.rbegin(); it != records.rend(); ++it) {
+    const bool mine = stage_of_record(it->name) == stage;
+    if (mine) {
+      total = (found ? total : 0.0) + it->wall_s;
+      found = true;
+      if (it->name == stage_name(stage)) break;  // a whole-stage record stands alone
+    } else if (found) {
+      break;
+    }
+  }
+  return total;
+}
+
 std::shared_ptr<const SceneData> SceneDataBuilder::update(const Pipeline& pipeline,
                                                           std::shared_ptr<const Image> image) {
   auto s = std::make_shared<SceneData>();
@@ -60,9 +87,15 @@ std::shared_ptr<const SceneData> SceneDataBuilder::update(const Pipeline& pipeli
   std::array<bool, kStageCount> ran{};
   const auto& records = pipeline.records();
   for (std::size_t i = records_seen_; i < records.size(); ++i)
-    for (int st = 0; st < kStageCount; ++st)
-      if (records[i].name == stage_name(Stage(st))) ran[st] = true;
+    if (const Stage st = stage_of_record(records[i].name); st != Stage::count) ran[int(st)] = true;
   records_seen_ = records.size();
+  const std::array<const void*, kStageCount> now{pipeline.preprocess(), pipeline.surface(),
+                                                 pipeline.lloyd(),      pipeline.shallow(),
+                                                 pipeline.mesh(),       pipeline.quality()};
+  for (int st = 0; st < kStageCount; ++st) {
+    if (now[st] != seen_[st]) ran[st] = true;
+    seen_[st] = now[st];
+  }
   const bool new_image = !prev || prev->image != image;
 
   s->image = image;

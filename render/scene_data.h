@@ -19,20 +19,20 @@ namespace cvt::render {
 
 // Stage 1 results on the cropped grid, for the slice overlays and the early 3D surface.
 struct VolumeLayers {
-  Grid grid;                        // the cropped (and padded) object grid
-  std::array<int, 3> offset{};      // image voxel of crop voxel (0,0,0)
-  Mask object;                      // 1 inside
-  Volume<float> lfs_mm;             // clamped local feature size
-  Mask medial_axis;                 // 1 inner, 2 outer
-  LfsBounds lfs_bounds{0, 0};       // the colormap range of lfs_mm
-  TriangleSurface object_surface;   // marching cubes of `object` (world mm)
+  Grid grid;                       // the cropped (and padded) object grid
+  std::array<int, 3> offset{};     // image voxel of crop voxel (0,0,0)
+  Mask object;                     // 1 inside
+  Volume<float> lfs_mm;            // clamped local feature size
+  Mask medial_axis;                // 1 inner, 2 outer
+  LfsBounds lfs_bounds{0, 0};      // the colormap range of lfs_mm
+  TriangleSurface object_surface;  // object_surface_preview (world mm)
 };
 
 // The Lloyd state (stage 3) at one iteration.
 struct LloydState {
-  Grid grid;                        // the cropped grid the sites live on
-  std::vector<Vec3> sites_world;    // mm
-  std::vector<Vec3> sites_local;    // mm, spacing ⊙ index (for discrete Voronoi labels)
+  Grid grid;                      // the cropped grid the sites live on
+  std::vector<Vec3> sites_world;  // mm
+  std::vector<Vec3> sites_local;  // mm, spacing ⊙ index (for discrete Voronoi labels)
   std::vector<IterationStats> history;
   CvtResolved resolved;
   bool converged = false;
@@ -41,19 +41,19 @@ struct LloydState {
 // Per-tet values of every Measure, in enum order, for colouring and highlighting.
 inline constexpr int kMeasureCount = 6;
 struct MeshLayers {
-  TetMesh mesh;                     // world mm
-  TetNeighbours neighbours;         // for the faces a clip exposes
+  TetMesh mesh;              // world mm
+  TetNeighbours neighbours;  // for the faces a clip exposes
   std::vector<Vec3> exterior_poles;
   std::array<std::vector<double>, kMeasureCount> measures;  // exactly as core bins them
-  Vec3 lo, hi;                      // bounding box of the vertices
+  Vec3 lo, hi;                                              // bounding box of the vertices
 };
 
 struct SceneData {
-  std::shared_ptr<const Image> image;            // null before an image is loaded
+  std::shared_ptr<const Image> image;                // null before an image is loaded
   std::map<std::int64_t, std::size_t> label_counts;  // integer images: voxels per label
   ValueRange value_range;
-  Parameters parameters;                         // as applied to the pipeline
-  std::array<bool, kStageCount> stale{};         // Pipeline::is_stale per stage
+  Parameters parameters;                  // as applied to the pipeline
+  std::array<bool, kStageCount> stale{};  // Pipeline::is_stale per stage
   std::vector<StageRecord> records;
   double default_interior_spacing_mm = 0;
   std::shared_ptr<const VolumeLayers> volumes;
@@ -64,6 +64,12 @@ struct SceneData {
   std::shared_ptr<const QualityReport> quality;
   std::shared_ptr<const FidelityReport> fidelity;
 };
+
+// The stage a StageRecord belongs to: its name is the stage's name, or a part of it
+// ("quality", "fidelity" for evaluation); Stage::count for anything else.
+Stage stage_of_record(const std::string& name);
+// Seconds the latest run of `stage` took (its parts summed), or a negative value if none.
+double stage_seconds(const std::vector<StageRecord>& records, Stage stage);
 
 // Builds snapshots of one Pipeline, reusing what did not change. Call only from the thread that
 // owns the Pipeline, between its operations.
@@ -77,6 +83,9 @@ class SceneDataBuilder {
  private:
   std::shared_ptr<const SceneData> last_;
   std::size_t records_seen_ = 0;
+  // Addresses of the pipeline's results at the last snapshot: a new address also means a new
+  // result (the records are the main signal; this catches a stage that records nothing).
+  std::array<const void*, kStageCount> seen_{};
 };
 
 std::shared_ptr<const LloydState> make_lloyd_state(const LloydStepper& stepper);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <string>
+#include <type_traits>
 
 namespace cvt::render {
 namespace {
@@ -51,8 +52,9 @@ WindowLevel default_window_level(const ValueRange& range) {
 }
 
 std::array<int, 2> slice_plane_axes(int axis) {
-  return axis == 0 ? std::array<int, 2>{1, 2} : axis == 1 ? std::array<int, 2>{0, 2}
-                                                          : std::array<int, 2>{0, 1};
+  return axis == 0   ? std::array<int, 2>{1, 2}
+         : axis == 1 ? std::array<int, 2>{0, 2}
+                     : std::array<int, 2>{0, 1};
 }
 
 std::vector<std::int32_t> voronoi_slice_labels(const LloydState& lloyd, const VolumeLayers& vol,
@@ -85,76 +87,96 @@ std::vector<std::int32_t> voronoi_slice_labels(const LloydState& lloyd, const Vo
   return labels;
 }
 
+int slice_upsample(int width, int height) {
+  const int longest = std::max({width, height, 1});
+  return std::clamp((1000 + longest - 1) / longest, 1, 8);
+}
+
 SliceImage compose_slice(const Image& image, const VolumeLayers* vol,
                          const std::vector<std::int32_t>* voronoi, int axis, int index,
-                         const Overlays& overlays, const WindowLevel& wl) {
+                         const Overlays& overlays, const WindowLevel& wl, int upsample) {
   const Grid& g = image.grid();
   const auto [ua, va] = slice_plane_axes(axis);
+  const int w = g.dims[ua], h = g.dims[va];
+  const int k = upsample > 0 ? upsample : slice_upsample(w, h);
   SliceImage out;
-  out.width = g.dims[ua];
-  out.height = g.dims[va];
-  out.pixel_mm[0] = g.spacing[ua];
-  out.pixel_mm[1] = g.spacing[va];
+  out.width = w * k;
+  out.height = h * k;
+  out.upsample = k;
+  out.pixel_mm[0] = g.spacing[ua] / k;
+  out.pixel_mm[1] = g.spacing[va] / k;
   out.pixels.assign(std::size_t(out.width) * out.height, Rgba8{0, 0, 0, 255});
   if (index < 0 || index >= g.dims[axis]) return out;
+
+  // Per voxel: its colour, and the two things whose changes between neighbours are lines.
+  std::vector<Rgba8> color(std::size_t(w) * h);
+  std::vector<std::uint8_t> inside(std::size_t(w) * h, 0);
+  std::vector<std::int32_t> cell(std::size_t(w) * h, -1);
   const double lo = wl.level - 0.5 * wl.window, inv_w = 1.0 / std::max(wl.window, 1e-12);
-  for (int v = 0; v < out.height; ++v)
-    for (int u = 0; u < out.width; ++u) {
+  const int ci = vol ? index - vol->offset[axis] : -1;
+  const bool crop_slice = vol && ci >= 0 && ci < vol->grid.dims[axis];
+  const double lfs_lo = vol ? vol->lfs_bounds.min_mm : 0, lfs_hi = vol ? vol->lfs_bounds.max_mm : 1;
+  for (int v = 0; v < h; ++v)
+    for (int u = 0; u < w; ++u) {
+      const std::size_t p = std::size_t(v) * w + u;
       const auto ijk = voxel_of(axis, index, u, v);
       const double t = std::clamp((image.voxels.at(ijk[0], ijk[1], ijk[2]) - lo) * inv_w, 0.0, 1.0);
       const auto grey = std::uint8_t(std::lround(t * 255));
-      out.pixels[std::size_t(v) * out.width + u] = {grey, grey, grey, 255};
-    }
-  if (!vol) return out;
-  const int ci = index - vol->offset[axis];
-  if (ci < 0 || ci >= vol->grid.dims[axis]) return out;
-  // Crop voxel value at image slice pixel (u, v); `fallback` outside the crop.
-  auto crop_lin = [&](int u, int v) -> long long {
-    std::array<int, 3> c{};
-    c[axis] = ci;
-    c[ua] = u - vol->offset[ua];
-    c[va] = v - vol->offset[va];
-    if (!vol->grid.contains(c[0], c[1], c[2])) return -1;
-    return (long long)vol->grid.linear(c[0], c[1], c[2]);
-  };
-  auto inside = [&](int u, int v) {
-    const long long lin = crop_lin(u, v);
-    return lin >= 0 && vol->object.data[lin] != 0;
-  };
-  auto label_at = [&](int u, int v) {
-    if (u < 0 || v < 0 || u >= out.width || v >= out.height) return std::int32_t(-1);
-    return (*voronoi)[std::size_t(v) * out.width + u];
-  };
-  const double lfs_lo = vol->lfs_bounds.min_mm, lfs_hi = vol->lfs_bounds.max_mm;
-  for (int v = 0; v < out.height; ++v)
-    for (int u = 0; u < out.width; ++u) {
-      const long long lin = crop_lin(u, v);
-      if (lin < 0) continue;
-      Rgba8& px = out.pixels[std::size_t(v) * out.width + u];
-      const bool in = vol->object.data[lin] != 0;
-      if (in && overlays.object) {
-        const bool edge = !inside(u - 1, v) || !inside(u + 1, v) || !inside(u, v - 1) ||
-                          !inside(u, v + 1);
-        px = blend_over(px, edge ? kObjectOutline : kObjectTint);
-      }
-      if (in && overlays.lfs) {
-        Rgba8 c = colormap_color(Colormap::Viridis,
-                                 normalize_value(vol->lfs_mm.data[lin], lfs_lo, lfs_hi));
-        c.a = kLfsAlpha;
-        px = blend_over(px, c);
-      }
-      if (in && overlays.voronoi && voronoi) {
-        const std::int32_t label = label_at(u, v);
-        if (label >= 0) {
-          const bool border = label_at(u + 1, v) != label || label_at(u - 1, v) != label ||
-                              label_at(u, v + 1) != label || label_at(u, v - 1) != label;
-          Rgba8 c = label_color(label);
-          c.a = kCellAlpha;
-          px = blend_over(px, border ? kCellBorder : c);
+      Rgba8 px{grey, grey, grey, 255};
+      if (crop_slice) {
+        std::array<int, 3> c{};
+        c[axis] = ci;
+        c[ua] = u - vol->offset[ua];
+        c[va] = v - vol->offset[va];
+        if (vol->grid.contains(c[0], c[1], c[2])) {
+          const std::size_t lin = vol->grid.linear(c[0], c[1], c[2]);
+          inside[p] = vol->object.data[lin] != 0;
+          if (inside[p] && overlays.object) px = blend_over(px, kObjectTint);
+          if (inside[p] && overlays.lfs) {
+            Rgba8 lc = colormap_color(Colormap::Viridis,
+                                      normalize_value(vol->lfs_mm.data[lin], lfs_lo, lfs_hi));
+            lc.a = kLfsAlpha;
+            px = blend_over(px, lc);
+          }
+          if (inside[p] && overlays.voronoi && voronoi && (*voronoi)[p] >= 0) {
+            cell[p] = (*voronoi)[p];
+            Rgba8 cc = label_color(cell[p]);
+            cc.a = kCellAlpha;
+            px = blend_over(px, cc);
+          }
+          if (overlays.medial && vol->medial_axis.data[lin])
+            px = vol->medial_axis.data[lin] == 1 ? kInnerMedial : kOuterMedial;
         }
       }
-      if (overlays.medial && vol->medial_axis.data[lin])
-        px = vol->medial_axis.data[lin] == 1 ? kInnerMedial : kOuterMedial;
+      color[p] = px;
+    }
+
+  // Expand; a pixel on a voxel edge whose neighbour across it differs becomes a line.
+  // Beyond the slice's edge counts as outside the object and in no cell.
+  auto differs = [&](const auto& field, int u, int v, int du, int dv) {
+    using T = std::decay_t<decltype(field[0])>;
+    const int nu = u + du, nv = v + dv;
+    const T none = std::is_signed_v<T> ? T(-1) : T(0);
+    const T there = nu < 0 || nv < 0 || nu >= w || nv >= h ? none : field[std::size_t(nv) * w + nu];
+    return there != field[std::size_t(v) * w + u];
+  };
+  const bool cells = overlays.voronoi && voronoi, outline = overlays.object && crop_slice;
+  for (int y = 0; y < out.height; ++y)
+    for (int x = 0; x < out.width; ++x) {
+      const int u = x / k, v = y / k, a = x % k, b = y % k;
+      Rgba8 px = color[std::size_t(v) * w + u];
+      const int du = a == 0 ? -1 : a == k - 1 ? 1 : 0, dv = b == 0 ? -1 : b == k - 1 ? 1 : 0;
+      // With k = 1 every pixel is on all four edges; with k ≥ 2 only the rim pixels are.
+      auto on_line = [&](const auto& field) {
+        if (k == 1)
+          return differs(field, u, v, 1, 0) || differs(field, u, v, -1, 0) ||
+                 differs(field, u, v, 0, 1) || differs(field, u, v, 0, -1);
+        return (du && differs(field, u, v, du, 0)) || (dv && differs(field, u, v, 0, dv));
+      };
+      if (cells && cell[std::size_t(v) * w + u] >= 0 && on_line(cell))
+        px = blend_over(px, kCellBorder);
+      if (outline && inside[std::size_t(v) * w + u] && on_line(inside)) px = kObjectOutline;
+      out.pixels[std::size_t(y) * out.width + x] = px;
     }
   return out;
 }
@@ -166,8 +188,8 @@ void append_points_near_slice(const std::vector<Vec3>& world, const Grid& image_
   for (const Vec3& p : world) {
     const Vec3 idx = image_grid.world_to_index(p);
     if (std::abs(idx[axis] - index) > half_thickness_voxels) continue;
-    out.push_back({float(idx[ua] * image_grid.spacing[ua]),
-                   float(idx[va] * image_grid.spacing[va]), color});
+    out.push_back(
+        {float(idx[ua] * image_grid.spacing[ua]), float(idx[va] * image_grid.spacing[va]), color});
   }
 }
 

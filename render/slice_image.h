@@ -5,6 +5,7 @@
 
 #include <array>
 #include <cstdint>
+#include <string>
 #include <vector>
 
 #include "colormap.h"
@@ -14,14 +15,15 @@ namespace cvt::render {
 
 // Overlays of the slice view (and the points of the 3D view).
 struct Overlays {
-  bool object = true;     // tint of the object voxels with their outline
-  bool lfs = false;       // local feature size colormap (inside the object)
-  bool medial = false;    // medial-axis voxels (inner magenta, outer cyan)
-  bool samples = true;    // surface samples B
-  bool interior = true;   // interior samples I (current Lloyd sites)
-  bool shallow = true;    // removed shallow points (red)
-  bool poles = false;     // exterior poles EP
-  bool voronoi = false;   // discrete Voronoi cells of the current Lloyd iteration
+  bool object = true;    // tint of the object voxels with their outline
+  bool lfs = false;      // local feature size colormap (inside the object)
+  bool medial = false;   // medial-axis voxels (inner magenta, outer cyan)
+  bool samples = true;   // surface samples B
+  bool interior = true;  // interior samples I (current Lloyd sites)
+  bool shallow = true;   // removed shallow points (red)
+  bool poles = false;    // exterior poles EP
+  bool voronoi = false;  // discrete Voronoi cells of the current Lloyd iteration
+  bool operator==(const Overlays&) const = default;
 };
 
 // Sets the overlay called `name` (object, lfs, medial, samples, interior, shallow, poles,
@@ -30,8 +32,9 @@ bool set_overlay(Overlays& overlays, const std::string& name, bool on);
 const std::vector<std::string>& overlay_names();
 
 struct WindowLevel {
-  double window = 255;  // grey ramp width (image units)
-  double level = 127.5; // grey ramp centre
+  double window = 255;   // grey ramp width (image units)
+  double level = 127.5;  // grey ramp centre
+  bool operator==(const WindowLevel&) const = default;
 };
 WindowLevel default_window_level(const ValueRange& range);
 
@@ -40,22 +43,31 @@ WindowLevel default_window_level(const ValueRange& range);
 std::array<int, 2> slice_plane_axes(int axis);
 
 struct SliceImage {
-  int width = 0, height = 0;     // pixels along u (columns) and v (rows)
-  double pixel_mm[2] = {1, 1};   // spacing along u and v
-  std::vector<Rgba8> pixels;     // row-major, row 0 first (v = 0 at the top of the view)
+  int width = 0, height = 0;    // pixels along u (columns) and v (rows)
+  int upsample = 1;             // pixels per voxel along each axis
+  double pixel_mm[2] = {1, 1};  // pixel size along u and v (voxel spacing / upsample)
+  std::vector<Rgba8> pixels;    // row-major, row 0 first (v = 0 at the top of the view)
 };
+
+// Pixels per voxel for a slice of width × height voxels: enough that cell borders and the
+// object outline can be thin lines between voxels (about 1000 pixels across, at most 8).
+int slice_upsample(int width, int height);
 
 // Discrete Voronoi labels of the crop-grid voxels in image slice `index` along `axis` (the
 // owning site, −1 outside the object or the crop), width × height of the image slice.
 std::vector<std::int32_t> voronoi_slice_labels(const LloydState& lloyd, const VolumeLayers& vol,
                                                const Grid& image_grid, int axis, int index);
 
-// Composes slice `index` along `axis` of the image grid. `volumes` and `voronoi` may be null.
+// Composes slice `index` along `axis` of the image grid, each voxel `upsample` × `upsample`
+// pixels (0 = slice_upsample); the object outline and the Voronoi cell borders are drawn on
+// the voxel edges between differing neighbours. `volumes` and `voronoi` may be null.
 SliceImage compose_slice(const Image& image, const VolumeLayers* volumes,
                          const std::vector<std::int32_t>* voronoi, int axis, int index,
-                         const Overlays& overlays, const WindowLevel& window_level);
+                         const Overlays& overlays, const WindowLevel& window_level,
+                         int upsample = 0);
 
-// A point to draw in the slice view: slice mm (u·su, v·sv, as SliceImage pixels) and colour.
+// A point to draw in the slice view: slice mm (u·su, v·sv: voxel centres at whole multiples of
+// the spacing) and colour.
 struct SlicePoint {
   float u_mm = 0, v_mm = 0;
   Rgba8 color;

@@ -1,6 +1,7 @@
-# Turns the .glsl files given in SHADERS (a ;-list of paths) into OUTPUT, a C++ file that holds
+# Turns the .glsl files given in SHADERS (paths joined with '|') into OUTPUT, a C++ file that holds
 # each one as a raw string literal, so the viewer finds its shaders whatever the working folder.
 # Run at build time: cmake -DSHADERS=... -DOUTPUT=... -P embed_shaders.cmake
+string(REPLACE "|" ";" SHADERS "${SHADERS}")
 set(body "")
 foreach(path IN LISTS SHADERS)
   get_filename_component(name "${path}" NAME)

@@ -9,7 +9,6 @@ in vec3 v_barycentric;
 uniform float u_alpha;         // multiplies the vertex alpha (ghosted geometry)
 uniform bool u_edges;          // draw the triangle edges
 uniform float u_edge_width;    // in pixels
-uniform vec3 u_edge_color;
 
 out vec4 frag_color;
 
@@ -24,7 +23,7 @@ void main() {
     vec3 width = fwidth(v_barycentric) * u_edge_width;
     vec3 ramp = smoothstep(vec3(0.0), width, v_barycentric);
     float inside = min(min(ramp.x, ramp.y), ramp.z);
-    color = mix(u_edge_color, color, inside);
+    color = mix(color * 0.45, color, inside);  // a darker shade of the face: readable on any colour
   }
   frag_color = vec4(color, v_color.a * u_alpha);
 }

@@ -1,0 +1,174 @@
+// The quality panel: counts, the paper's Table I (three measures × three bins), histograms,
+// dihedral angles, validity and fidelity. Clicking a Table I cell or a histogram bar highlights
+// those tets in the 3D view; clicking it again clears the highlight.
+#include <imgui.h>
+
+#include <cstdio>
+#include <vector>
+
+#include "quality_selection.h"
+#include "ui.h"
+
+namespace cvt::gui {
+namespace {
+
+const char* measure_title(Measure m) {
+  switch (m) {
+    case Measure::VOverRmc3:
+      return "V / r_mc^3";
+    case Measure::GradientError:
+      return "gradient error";
+    case Measure::ConditionNumber:
+      return "condition number";
+    case Measure::MinDihedralDeg:
+      return "min dihedral (deg)";
+    case Measure::MaxDihedralDeg:
+      return "max dihedral (deg)";
+    case Measure::RadiusEdge:
+      return "radius-edge ratio";
+  }
+  return "?";
+}
+
+void toggle_highlight(ViewSettings& view, const render::TetSelection& selection) {
+  view.highlight = view.highlight == selection ? render::TetSelection{} : selection;
+}
+
+void table_one(UiContext& ctx, const QualityReport& q) {
+  if (!ImGui::BeginTable("table1", 4, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingStretchProp))
+    return;
+  ImGui::TableSetupColumn("measure");
+  ImGui::TableSetupColumn("low %");
+  ImGui::TableSetupColumn("middle %");
+  ImGui::TableSetupColumn("high %");
+  ImGui::TableHeadersRow();
+  for (int i = 0; i < 3; ++i) {
+    const Measure m = kShewchukMeasures[i];
+    const auto edges = table1_bin_edges(m);
+    ImGui::TableNextRow();
+    ImGui::TableNextColumn();
+    ImGui::Text("%s", measure_title(m));
+    for (int b = 0; b < 3; ++b) {
+      ImGui::TableNextColumn();
+      render::TetSelection sel;
+      sel.kind = render::TetSelection::Kind::table1_bin;
+      sel.measure = m;
+      sel.index = b;
+      char text[48];
+      std::snprintf(text, sizeof text, "%.2f##%d%d", q.shewchuk[i].bins_percent[b], i, b);
+      if (ImGui::Selectable(text, ctx.view.highlight == sel)) toggle_highlight(ctx.view, sel);
+      if (ImGui::IsItemHovered())
+        ImGui::SetTooltip("%s %s %.3g%s  (click: highlight these tets)", measure_title(m),
+                          b == 0   ? "<"
+                          : b == 1 ? "in ["
+                                   : ">",
+                          b == 2 ? edges[1] : edges[0],
+                          b == 1 ? (", " + std::to_string(edges[1]) + "]").c_str() : "");
+    }
+  }
+  ImGui::EndTable();
+}
+
+// A clickable histogram of one per-tet measure.
+void histogram(UiContext& ctx, const render::MeshLayers& mesh, Measure m) {
+  const int bars = 20;
+  const auto counts = render::measure_histogram(mesh.measures[int(m)], m, bars);
+  std::vector<float> values(counts.begin(), counts.end());
+  const render::MeasureScale scale = render::measure_scale(m);
+  char overlay[96];
+  std::snprintf(overlay, sizeof overlay, "%s over [%.3g, %.3g]", measure_title(m), scale.lo,
+                scale.hi);
+  const float width = ImGui::GetContentRegionAvail().x;
+  ImGui::PlotHistogram("##histogram", values.data(), bars, 0, overlay, 0.0f, FLT_MAX,
+                       ImVec2(width, 90));
+  const ImVec2 lo = ImGui::GetItemRectMin(), hi = ImGui::GetItemRectMax();
+  const float pad = ImGui::GetStyle().FramePadding.x;
+  const float x = ImGui::GetIO().MousePos.x;
+  const int bar =
+      std::clamp(int((x - lo.x - pad) / std::max(hi.x - lo.x - 2 * pad, 1.0f) * bars), 0, bars - 1);
+  render::TetSelection sel;
+  sel.kind = render::TetSelection::Kind::histogram_bar;
+  sel.measure = m;
+  sel.index = bar;
+  sel.range = {scale.lo, scale.hi};
+  sel.bars = bars;
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("%s: %zu tets (click: highlight)", render::describe(sel).c_str(),
+                      counts[bar]);
+  if (ImGui::IsItemClicked()) toggle_highlight(ctx.view, sel);
+}
+
+}  // namespace
+
+void draw_quality_panel(UiContext& ctx) {
+  if (!ctx.ui.show_quality) return;
+  const Rect& r = ctx.ui.quality_panel;
+  ImGui::SetNextWindowPos(ImVec2(r.x, r.y));
+  ImGui::SetNextWindowSize(ImVec2(r.w, r.h));
+  if (!ImGui::Begin(
+          "Quality", &ctx.ui.show_quality,
+          ImGuiWindowFlags_NoMove | ImGuiWindowFlags_NoResize | ImGuiWindowFlags_NoCollapse)) {
+    ImGui::End();
+    return;
+  }
+  const render::SceneData* scene = ctx.session.scene();
+  if (scene) {
+    if (scene->surface_samples)
+      ImGui::Text("surface samples B: %zu", scene->surface_samples->size());
+    if (const auto lloyd = ctx.session.lloyd())
+      ImGui::Text("interior sites: %zu", lloyd->sites_world.size());
+    if (scene->shallow)
+      ImGui::Text("interior I: %zu kept, %zu shallow removed", scene->shallow->kept_world.size(),
+                  scene->shallow->removed_world.size());
+    if (scene->mesh)
+      ImGui::Text("mesh: %zu vertices, %zu tets, %zu exterior poles",
+                  scene->mesh->mesh.vertices.size(), scene->mesh->mesh.tets.size(),
+                  scene->mesh->exterior_poles.size());
+  }
+  const QualityReport* q = scene ? scene->quality.get() : nullptr;
+  if (!q) {
+    ImGui::TextDisabled("no quality report yet (run the evaluation stage)");
+    ImGui::End();
+    return;
+  }
+  ImGui::Separator();
+  ImGui::Text("Table I (%% of %zu tets)", q->tets);
+  table_one(ctx, *q);
+  if (ctx.view.highlight.kind != render::TetSelection::Kind::none) {
+    ImGui::Text("highlighted: %zu kept tets, %s", ctx.renderer.highlighted_tets,
+                render::describe(ctx.view.highlight).c_str());
+    ImGui::SameLine();
+    if (ImGui::SmallButton("clear")) ctx.view.highlight = {};
+  }
+  static int measure = 0;
+  const char* names[] = {"V / r_mc^3",   "gradient error", "condition number",
+                         "min dihedral", "max dihedral",   "radius-edge"};
+  ImGui::SetNextItemWidth(180);
+  ImGui::Combo("histogram", &measure, names, 6);
+  if (scene->mesh) histogram(ctx, *scene->mesh, Measure(measure));
+
+  const DihedralStats& d = q->dihedral;
+  ImGui::Text("dihedral angles: min %.2f deg, max %.2f deg", d.min_deg, d.max_deg);
+  ImGui::Text("tets with min dihedral < 5/10/20 deg: %zu / %zu / %zu", d.below_5, d.below_10,
+              d.below_20);
+  ImGui::Text("tets with max dihedral > 160/170 deg: %zu / %zu", d.above_160, d.above_170);
+  ImGui::Separator();
+  const Validity& v = q->validity;
+  ImGui::TextColored(v.valid ? ImVec4(0.45f, 0.85f, 0.45f, 1) : ImVec4(1, 0.4f, 0.4f, 1), "%s",
+                     v.valid ? "valid mesh" : "NOT a valid mesh");
+  ImGui::Text("inverted %zu, zero volume %zu, unreferenced vertices %zu", v.inverted, v.zero_volume,
+              v.unreferenced_vertices);
+  ImGui::Text("boundary: %s, Euler characteristic %lld, %zu component(s)",
+              v.boundary.closed_manifold ? "closed 2-manifold" : "not a closed manifold",
+              v.boundary.euler_characteristic, v.boundary.components);
+  if (const FidelityReport* f = scene->fidelity.get()) {
+    ImGui::Separator();
+    ImGui::Text("volume: mesh %.5g mm3, object %.5g mm3 (%+.2f %%)", f->mesh_volume_mm3,
+                f->object_volume_mm3, f->volume_error_percent);
+    ImGui::Text("Hausdorff %.3f mm, mean %.3f mm, p95 %.3f mm", f->distance.hausdorff_mm,
+                f->distance.mean_mm, f->distance.p95_mm);
+  }
+  ImGui::End();
+}
+
+}  // namespace cvt::gui

@@ -1,0 +1,304 @@
+#include "viewer.h"
+
+#include <imgui.h>
+#include <imgui_impl_glfw.h>
+#include <imgui_impl_opengl3.h>
+
+#include "gl.h"
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <vector>
+
+#include "frame_stats.h"
+#include "screenshot.h"
+
+namespace cvt::gui {
+namespace {
+
+double now_s() {
+  using namespace std::chrono;
+  return duration<double>(steady_clock::now().time_since_epoch()).count();
+}
+
+// Paths dropped on the window go to the vector behind the window's user pointer; the loop
+// opens them (GLFW calls back during event polling, on the UI thread).
+void on_drop(GLFWwindow* window, int count, const char** paths) {
+  auto* dropped = static_cast<std::vector<std::string>*>(glfwGetWindowUserPointer(window));
+  for (int i = 0; i < count; ++i) dropped->emplace_back(paths[i]);
+}
+
+// Mouse on the views (when ImGui does not want it): orbit/pan/zoom in 3D; pan, zoom, slice and
+// window/level on the slice.
+class MouseControl {
+ public:
+  void update(UiContext& ctx, const ViewRects& rects) {
+    const ImGuiIO& io = ImGui::GetIO();
+    const ImVec2 m = io.MousePos;
+    const bool any_down = io.MouseDown[0] || io.MouseDown[1] || io.MouseDown[2];
+    if (!any_down) target_ = 0;
+    if (io.WantCaptureMouse && target_ == 0) return;
+    const bool in3d = rects.view3d.contains(m.x, m.y), in_slice = rects.slice.contains(m.x, m.y);
+    if (target_ == 0 && any_down &&
+        (io.MouseClicked[0] || io.MouseClicked[1] || io.MouseClicked[2]))
+      target_ = in3d ? 1 : in_slice ? 2 : 0;
+    const ImVec2 d = io.MouseDelta;
+    SceneRenderer& r = ctx.renderer;
+    ViewSettings& v = ctx.view;
+    if (target_ == 1) {
+      if ((io.MouseDown[0] && io.KeyShift) || io.MouseDown[1] || io.MouseDown[2])
+        r.camera.pan(d.x, d.y, rects.view3d.h);
+      else if (io.MouseDown[0])
+        r.camera.orbit(d.x, d.y);
+    } else if (target_ == 2) {
+      if (io.MouseDown[0]) r.slice_transform.pan(d.x, d.y);
+      if (io.MouseDown[1] && ctx.session.scene()) {
+        const render::SceneData& s = *ctx.session.scene();
+        render::WindowLevel wl =
+            v.window_level.value_or(render::default_window_level(s.value_range));
+        const double range = std::max(s.value_range.max - s.value_range.min, 1e-6);
+        wl.window = std::max(1e-6, wl.window + d.x * range / 400.0);
+        wl.level += d.y * range / 400.0;
+        v.window_level = wl;
+      }
+    }
+    if (io.MouseWheel != 0 && target_ == 0 && !io.WantCaptureMouse) {
+      if (in3d) r.camera.zoom(io.MouseWheel);
+      if (in_slice && io.KeyCtrl && ctx.session.scene() && ctx.session.scene()->image) {
+        const int n = ctx.session.scene()->image->grid().dims[v.slice_axis];
+        v.slice_index = std::clamp(
+            effective_slice_index(v, *ctx.session.scene()) + int(std::lround(io.MouseWheel)), 0,
+            n - 1);
+      } else if (in_slice) {
+        r.slice_transform.zoom_at(io.MouseWheel, m.x - rects.slice.x, m.y - rects.slice.y,
+                                  rects.slice.w, rects.slice.h);
+      }
+    }
+  }
+
+ private:
+  int target_ = 0;  // the view a drag started in: 0 none, 1 3D, 2 slice
+};
+
+struct GlfwScope {
+  GlfwScope() : ok(glfwInit() == GLFW_TRUE) {}
+  ~GlfwScope() {
+    if (ok) glfwTerminate();
+  }
+  bool ok;
+};
+
+}  // namespace
+
+int run_viewer(const ViewerOptions& options) {
+  glfwSetErrorCallback([](int code, const char* text) {
+    std::fprintf(stderr, "cvtmesh-gui: GLFW error %d: %s\n", code, text);
+  });
+  GlfwScope glfw;
+  if (!glfw.ok) {
+    std::fprintf(stderr,
+                 "cvtmesh-gui: cannot initialise GLFW (is there a display? try xvfb-run)\n");
+    return 1;
+  }
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MAJOR, 3);
+  glfwWindowHint(GLFW_CONTEXT_VERSION_MINOR, 3);
+  glfwWindowHint(GLFW_OPENGL_PROFILE, GLFW_OPENGL_CORE_PROFILE);
+  glfwWindowHint(GLFW_OPENGL_FORWARD_COMPAT, GLFW_TRUE);
+  GLFWwindow* window =
+      glfwCreateWindow(options.width, options.height, "cvtmesh-gui", nullptr, nullptr);
+  if (!window) {
+    std::fprintf(stderr, "cvtmesh-gui: cannot create an OpenGL 3.3 core window\n");
+    return 1;
+  }
+  glfwMakeContextCurrent(window);
+  const bool scripted = options.exit_when_done;
+  glfwSwapInterval(scripted ? 0 : 1);
+  std::vector<std::string> dropped;
+  glfwSetWindowUserPointer(window, &dropped);
+  glfwSetDropCallback(window, on_drop);
+
+  IMGUI_CHECKVERSION();
+  ImGui::CreateContext();
+  ImGuiIO& io = ImGui::GetIO();
+  // Window placement of the dialogs, next to the recent files (not for scripted runs).
+  std::string ini_path = default_recent_files_path();
+  if (!ini_path.empty() && !scripted)
+    ini_path = (std::filesystem::path(ini_path).parent_path() / "imgui.ini").string();
+  else
+    ini_path.clear();
+  io.IniFilename = ini_path.empty() ? nullptr : ini_path.c_str();
+  ImGui::StyleColorsDark();
+  // DejaVu Sans (Debian's fonts-dejavu-core) has the Greek letters and symbols of the
+  // parameter names and tooltips (σ, λ, θ, ε, ρ, ≥, Σ); ImGui's built-in font shows '?'.
+  static const ImWchar glyphs[] = {0x0020, 0x00FF, 0x0370, 0x03FF, 0x2000,
+                                   0x206F, 0x2190, 0x22FF, 0};
+  const char* font = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
+  if (std::filesystem::exists(font)) io.Fonts->AddFontFromFileTTF(font, 15.0f, nullptr, glyphs);
+  ImGui_ImplGlfw_InitForOpenGL(window, true);
+  ImGui_ImplOpenGL3_Init("#version 330 core");
+
+  int exit_code = 0;
+  {
+    SessionOptions session_options;
+    session_options.max_threads = options.max_threads;
+    if (!scripted) session_options.recent_files_path = default_recent_files_path();
+    Session session(session_options);
+    ViewSettings view = options.view;
+    UiState ui;
+    std::unique_ptr<SceneRenderer> renderer;
+    try {
+      renderer = std::make_unique<SceneRenderer>();
+    } catch (const std::exception& e) {
+      std::fprintf(stderr, "cvtmesh-gui: %s\n", e.what());
+      exit_code = 1;
+    }
+    render::Framebuffer screenshot_fbo;
+    MouseControl mouse;
+    if (!options.preset.empty() && !session.load_preset(options.preset) && scripted) {
+      std::fprintf(stderr, "cvtmesh-gui: %s\n", session.messages.back().text.c_str());
+      exit_code = 1;
+    }
+    if (!options.image.empty()) session.open_image(options.image);
+    if (options.run_all && !options.image.empty())
+      session.run_all();
+    else if (options.run_through && !options.image.empty())
+      session.run_through(*options.run_through);
+
+    for (const std::string& name : options.show_windows) show_window(ui, name);
+    std::optional<ScreenshotRequest> scripted_shot = options.screenshot;
+    int ready_frames = 0;
+    BenchmarkRecorder bench(options.benchmark_frames);
+    Rect last_area;
+    while (renderer && exit_code == 0 && !glfwWindowShouldClose(window) && !ui.quit) {
+      const double frame_start = now_s();
+      const bool was_idle = !session.busy();
+      const std::string running_job = session.worker_status().job;
+      // Benchmarks draw continuously. Other runs wait for events, or 1/30 s while a job runs
+      // (progress) and in scripted runs (which have no events), so the window costs little CPU
+      // and the lower-priority pipeline threads keep their cores.
+      if (options.benchmark_frames)
+        glfwPollEvents();
+      else
+        glfwWaitEventsTimeout(session.busy() || scripted ? 1.0 / 30 : 0.5);
+      const double work_start = now_s();
+      for (const std::string& path : dropped) session.open_image(path);
+      dropped.clear();
+      session.poll(now_s());
+      if (scripted && session.failed_jobs > 0) {
+        std::fprintf(stderr, "cvtmesh-gui: %s\n", session.first_error.c_str());
+        exit_code = 1;
+        break;
+      }
+
+      int win_w = 0, win_h = 0, fb_w = 0, fb_h = 0;
+      glfwGetWindowSize(window, &win_w, &win_h);
+      glfwGetFramebufferSize(window, &fb_w, &fb_h);
+      ImGui_ImplOpenGL3_NewFrame();
+      ImGui_ImplGlfw_NewFrame();
+      ImGui::NewFrame();
+      // The panels are pinned beside the views; scripted runs show the views alone.
+      const bool show_ui = !scripted || (options.screenshot && options.screenshot->include_ui);
+      const float bar = show_ui ? ImGui::GetFrameHeight() : 0.0f;
+      const float status = show_ui ? ImGui::GetFrameHeight() + 8 : 0.0f;
+      layout_panels(ui, float(win_w), float(win_h), bar, status);
+      const Rect area = views_area(
+          float(win_w), float(win_h), show_ui && ui.show_pipeline ? kLeftPanelWidth : 0.0f,
+          show_ui && (ui.show_quality || ui.show_view) ? kRightPanelWidth : 0.0f, bar, status);
+      const ViewRects rects = view_rects(view.mode, area);
+      if (area.w != last_area.w || area.h != last_area.h) ui.fit_slice = last_area.w > 0;
+      last_area = area;
+      ui.now_s = now_s();
+      UiContext ctx{session, view, *renderer, ui};
+      mouse.update(ctx, rects);
+      handle_shortcuts(ctx);
+      if (show_ui) {
+        draw_menu_bar(ctx);
+        draw_pipeline_panel(ctx);
+        draw_quality_panel(ctx);
+        draw_view_panel(ctx);
+        draw_file_dialogs(ctx);
+        draw_help_window(ctx);
+        draw_messages_window(ctx);
+        draw_status_bar(ctx);
+      }
+      draw_legends(ctx, rects);
+      ImGui::Render();
+
+      const double sync_start = now_s();
+      renderer->sync(session.scene_ptr(), session.lloyd(), view, rects);
+      const double sync_ms = 1000.0 * (now_s() - sync_start);
+      if (ui.fit_3d) renderer->fit_3d(), ui.fit_3d = false;
+      if (ui.fit_slice) renderer->fit_slice(rects.slice), ui.fit_slice = false;
+      renderer->draw(view, rects, {fb_w, fb_h, float(fb_w) / float(std::max(win_w, 1))}, false);
+      ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
+
+      if (ui.screenshot_request) {
+        try {
+          take_screenshot(*ui.screenshot_request, *renderer, view, area, win_w, win_h,
+                          screenshot_fbo);
+          session.messages.push_back({false, "saved " + ui.screenshot_request->path});
+        } catch (const std::exception& e) {
+          session.messages.push_back({true, e.what()});
+        }
+        ui.screenshot_request.reset();
+      }
+      // Scripted: once every job is done and the legends had two frames to size themselves.
+      const bool done = was_idle && !session.busy() && !renderer->busy();
+      if (done)
+        ++ready_frames;
+      else
+        ready_frames = 0;
+      if (scripted_shot && ready_frames == 3) {
+        try {
+          take_screenshot(*scripted_shot, *renderer, view, area, win_w, win_h, screenshot_fbo);
+        } catch (const std::exception& e) {
+          std::fprintf(stderr, "cvtmesh-gui: %s\n", e.what());
+          exit_code = 1;
+        }
+        scripted_shot.reset();
+      }
+      glfwSwapBuffers(window);
+      if (options.benchmark_frames) glFinish();  // time the whole frame, not just its submission
+
+      const double frame_ms = 1000.0 * (now_s() - frame_start);
+      ui.frame_ms = 1000.0 * (now_s() - work_start);
+      if (options.benchmark_frames) {
+        if (frame_ms > 50 && std::getenv("CVTMESH_GUI_TRACE"))
+          std::fprintf(stderr, "slow frame %.1f ms (sync %.1f ms) during '%s'\n", frame_ms, sync_ms,
+                       running_job.c_str());
+        bench.record(frame_ms, was_idle ? "" : running_job, ready_frames > 3);
+        if (const double x = bench.sweep_position(); x >= 0)
+          view.clip_enabled = true, view.clip_position = x;
+        if (bench.done()) break;
+      } else if (scripted && ready_frames > 3 && !scripted_shot) {
+        break;
+      }
+    }
+    if (options.benchmark_frames) {
+      std::printf("window %dx%d, %s\n", options.width, options.height,
+                  reinterpret_cast<const char*>(glGetString(GL_RENDERER)));
+      if (session.scene() && session.scene()->mesh)
+        std::printf("mesh: %zu tets; drawn at the end: %zu kept tets, %zu cut faces\n",
+                    session.scene()->mesh->mesh.tets.size(), renderer->kept_tets,
+                    renderer->cut_faces);
+      for (const Session::JobTime& j : session.job_times)
+        std::printf("job %-22s %6.2f s (snapshot for the views %.2f s)\n", j.name.c_str(), j.wall_s,
+                    j.snapshot_s);
+      std::printf("%s", bench.report().c_str());
+    }
+    session.cancel();
+  }
+  ImGui_ImplOpenGL3_Shutdown();
+  ImGui_ImplGlfw_Shutdown();
+  ImGui::DestroyContext();
+  glfwDestroyWindow(window);
+  return exit_code;
+}
+
+}  // namespace cvt::gui

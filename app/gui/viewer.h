@@ -1,0 +1,33 @@
+// The cvtmesh-gui window: GLFW + Dear ImGui over the Session (worker) and the SceneRenderer.
+// Interactive by default; scripted runs (open, run, screenshot, benchmark, exit) use the same
+// loop, so a screenshot shows exactly what a user would see.
+#pragma once
+
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "ui.h"
+#include "view_settings.h"
+
+namespace cvt::gui {
+
+struct ViewerOptions {
+  std::string image;                            // opened at start (empty: none)
+  std::string preset;                           // loaded at start
+  bool run_all = false;                         // run every stage at start
+  std::optional<Stage> run_through;             // or the stages up to this one
+  std::optional<ScreenshotRequest> screenshot;  // taken once every job is done
+  bool exit_when_done = false;                  // quit after the jobs (and screenshot)
+  int benchmark_frames = 0;                     // time this many frames once done, print stats
+  int width = 1280, height = 800;               // window size (screen units)
+  ViewSettings view;                            // initial view
+  int max_threads = 0;                          // worker TBB threads (0 = all cores)
+  std::vector<std::string> show_windows;        // windows/dialogs open at start (show_window)
+};
+
+// Runs the window until it is closed (or the scripted run ends). Returns the exit code: 0, or 1
+// with one line on stderr when a file, a stage or the screenshot failed in a scripted run.
+int run_viewer(const ViewerOptions& options);
+
+}  // namespace cvt::gui

@@ -1,0 +1,60 @@
+// Checks a cvtmesh-gui screenshot: its size, how much of it is not background (the most
+// frequent colour), and how many distinct colours it has (a mesh coloured by quality, or
+// Voronoi cells, have hundreds; a blank or single-colour picture fails).
+// usage: check_screenshot PNG WIDTH HEIGHT MIN_FRACTION MIN_COLOURS
+#include <OpenImageIO/imageio.h>
+
+#include <cstdint>
+#include <cstdio>
+#include <cstdlib>
+#include <map>
+#include <vector>
+
+int main(int argc, char** argv) {
+  if (argc != 6) {
+    std::fprintf(stderr, "usage: check_screenshot PNG WIDTH HEIGHT MIN_FRACTION MIN_COLOURS\n");
+    return 2;
+  }
+  const char* path = argv[1];
+  const int want_w = std::atoi(argv[2]), want_h = std::atoi(argv[3]);
+  const double min_fraction = std::atof(argv[4]);
+  const std::size_t min_colours = std::strtoul(argv[5], nullptr, 10);
+  auto in = OIIO::ImageInput::open(path);
+  if (!in) {
+    std::printf("FAIL: cannot read %s: %s\n", path, OIIO::geterror().c_str());
+    return 1;
+  }
+  const OIIO::ImageSpec spec = in->spec();
+  const int channels = spec.nchannels;
+  std::vector<std::uint8_t> pixels(std::size_t(spec.width) * spec.height * channels);
+  if (!in->read_image(0, 0, 0, channels, OIIO::TypeDesc::UINT8, pixels.data())) {
+    std::printf("FAIL: cannot decode %s: %s\n", path, in->geterror().c_str());
+    return 1;
+  }
+  std::map<std::uint32_t, std::size_t> histogram;
+  for (std::size_t i = 0; i < std::size_t(spec.width) * spec.height; ++i) {
+    std::uint32_t key = 0;
+    for (int c = 0; c < std::min(channels, 4); ++c) key = key << 8 | pixels[i * channels + c];
+    ++histogram[key];
+  }
+  std::size_t background = 0;
+  for (const auto& [colour, count] : histogram) background = std::max(background, count);
+  const std::size_t total = std::size_t(spec.width) * spec.height;
+  const double fraction = 1.0 - double(background) / double(total);
+  std::printf("%s: %dx%d, %d channels, %.1f %% not background, %zu colours\n", path, spec.width,
+              spec.height, channels, 100.0 * fraction, histogram.size());
+  bool ok = true;
+  if (spec.width != want_w || spec.height != want_h) {
+    std::printf("FAIL: expected %dx%d\n", want_w, want_h);
+    ok = false;
+  }
+  if (fraction < min_fraction) {
+    std::printf("FAIL: expected at least %.1f %% not background\n", 100.0 * min_fraction);
+    ok = false;
+  }
+  if (histogram.size() < min_colours) {
+    std::printf("FAIL: expected at least %zu colours\n", min_colours);
+    ok = false;
+  }
+  return ok ? 0 : 1;
+}

@@ -1,0 +1,35 @@
+#!/usr/bin/env bash
+# Runs cvtmesh-gui scripted under Xvfb (Mesa's software OpenGL), then checks the PNG it wrote.
+# usage: gui_screenshot_test.sh XVFB_RUN GUI CHECKER [--expect-failure] PNG WIDTH HEIGHT
+#                               MIN_FRACTION MIN_COLOURS [GUI ARGUMENTS...]
+# With --expect-failure the program must exit non-zero with exactly one line on stderr and
+# write no PNG.
+set -uo pipefail
+xvfb=$1 gui=$2 checker=$3
+shift 3
+expect_failure=0
+if [ "$1" = --expect-failure ]; then
+  expect_failure=1
+  shift
+fi
+png=$1 width=$2 height=$3 fraction=$4 colours=$5
+shift 5
+mkdir -p "$(dirname "$png")"
+rm -f "$png"
+stderr=$(mktemp)
+trap 'rm -f "$stderr"' EXIT
+SECONDS=0
+"$xvfb" -a -s "-screen 0 1280x800x24" "$gui" "$@" --screenshot "$png" --exit 2>"$stderr"
+rc=$?
+cat "$stderr" >&2
+echo "cvtmesh-gui: exit $rc after ${SECONDS} s"
+if [ "$expect_failure" = 1 ]; then
+  [ "$rc" -ne 0 ] || { echo "FAIL: expected a non-zero exit"; exit 1; }
+  lines=$(wc -l <"$stderr")
+  [ "$lines" -eq 1 ] || { echo "FAIL: expected one line on stderr, got $lines"; exit 1; }
+  grep -q '^cvtmesh-gui: ' "$stderr" || { echo "FAIL: the line does not start with cvtmesh-gui:"; exit 1; }
+  [ ! -e "$png" ] || { echo "FAIL: a screenshot was written"; exit 1; }
+  exit 0
+fi
+[ "$rc" -eq 0 ] || { echo "FAIL: cvtmesh-gui exited with $rc"; exit 1; }
+exec "$checker" "$png" "$width" "$height" "$fraction" "$colours"

@@ -1,0 +1,405 @@
+// The viewer's GL-free control logic (app/gui/): stale marking and re-run decisions, view
+// layout, the worker thread (order, cancel, failures, live Lloyd states), the session driving
+// a real pipeline, recent files, parameter tooltips, frame statistics. No window.
+#include <gtest/gtest.h>
+
+#include <atomic>
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <thread>
+
+#include "frame_stats.h"
+#include "image_io.h"
+#include "parameter_info.h"
+#include "phantoms.h"
+#include "pipeline_worker.h"
+#include "preset.h"
+#include "recent_files.h"
+#include "session.h"
+#include "view_settings.h"
+
+using namespace cvt;
+using namespace cvt::gui;
+
+namespace {
+
+std::filesystem::path temp_dir(const std::string& name) {
+  const auto dir = std::filesystem::temp_directory_path() /
+                   ("cvtmesh_gui_" + name + "_" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  return dir;
+}
+
+// A small torus image on disk, as a user would open it.
+std::string torus_file() {
+  static const std::string path = [] {
+    const Phantom p = torus_phantom({4, -3, 2}, 9.0, 3.5);
+    const Image img =
+        rasterize(p, grid_around(p, {0.7, 0.8, 1.0}, rotation_matrix({1, 0, 1}, 0.3)));
+    const std::string file = (temp_dir("images") / "torus.nii.gz").string();
+    write_image(img, file);
+    return file;
+  }();
+  return path;
+}
+
+// Polls until the worker is idle and every outcome is taken.
+void settle(Session& s) {
+  s.wait_idle();
+  s.poll(0);
+}
+
+render::SceneData scene_with(const Parameters& applied, std::array<bool, kStageCount> stale) {
+  render::SceneData scene;
+  scene.parameters = applied;
+  scene.stale = stale;
+  return scene;
+}
+
+}  // namespace
+
+TEST(ViewSettings, StageStatesMarkEditsAndStaleness) {
+  Parameters applied;
+  auto scene = scene_with(applied, {false, false, false, false, false, false});
+  Parameters edited = applied;
+  auto states = stage_states(&scene, edited);
+  for (StageState s : states) EXPECT_EQ(s, StageState::done);
+  edited.r = 0.3;  // surface sampling and everything after it
+  states = stage_states(&scene, edited);
+  EXPECT_EQ(states[0], StageState::done);
+  for (int s = 1; s < kStageCount; ++s) EXPECT_EQ(states[s], StageState::pending) << s;
+  EXPECT_EQ(first_edited_stage(&scene, edited), Stage::surface);
+  edited = applied;
+  edited.seed = 7;
+  EXPECT_EQ(first_edited_stage(&scene, edited), Stage::cvt);
+  // The pipeline's own staleness shows whatever the edits.
+  scene = scene_with(applied, {false, false, false, true, true, true});
+  states = stage_states(&scene, applied);
+  EXPECT_EQ(states[2], StageState::done);
+  EXPECT_EQ(states[3], StageState::stale);
+  for (StageState s : stage_states(nullptr, applied)) EXPECT_EQ(s, StageState::stale);
+}
+
+TEST(ViewSettings, RerunAndAutoRerunDecisions) {
+  std::array<StageState, kStageCount> states{StageState::done,    StageState::pending,
+                                             StageState::pending, StageState::stale,
+                                             StageState::stale,   StageState::stale};
+  EXPECT_EQ(stages_to_rerun(states, Stage::cvt), (std::vector<Stage>{Stage::surface, Stage::cvt}));
+  EXPECT_EQ(stages_to_rerun(states, Stage::evaluate).size(), 5u);
+  states.fill(StageState::done);
+  EXPECT_TRUE(stages_to_rerun(states, Stage::evaluate).empty());
+  EXPECT_TRUE(should_auto_rerun(true, true, false, 1.0));
+  EXPECT_FALSE(should_auto_rerun(false, true, false, 1.0));  // off
+  EXPECT_FALSE(should_auto_rerun(true, false, false, 1.0));  // nothing to do
+  EXPECT_FALSE(should_auto_rerun(true, true, true, 1.0));    // a job runs
+  EXPECT_FALSE(should_auto_rerun(true, true, false, 0.1));   // still dragging a slider
+}
+
+TEST(ViewSettings, LayoutModesAndPoints) {
+  ViewMode m;
+  EXPECT_TRUE(parse_view_mode("3d", m));
+  EXPECT_EQ(m, ViewMode::view3d);
+  EXPECT_FALSE(parse_view_mode("4d", m));
+  const Rect area = views_area(1280, 800, 370, 390, 20, 28);
+  EXPECT_FLOAT_EQ(area.x, 370);
+  EXPECT_FLOAT_EQ(area.w, 1280 - 370 - 390);
+  EXPECT_FLOAT_EQ(area.h, 800 - 48);
+  const ViewRects tall = view_rects(ViewMode::split, area);  // 520 × 752: one above the other
+  EXPECT_FLOAT_EQ(tall.view3d.h + tall.slice.h, area.h);
+  EXPECT_FLOAT_EQ(tall.slice.y, tall.view3d.y + tall.view3d.h);
+  EXPECT_FLOAT_EQ(tall.slice.w, area.w);
+  const Rect wide_area{0, 20, 1280, 752};
+  const ViewRects wide = view_rects(ViewMode::split, wide_area);  // side by side
+  EXPECT_FLOAT_EQ(wide.view3d.w + wide.slice.w, wide_area.w);
+  EXPECT_FLOAT_EQ(wide.slice.x, wide.view3d.x + wide.view3d.w);
+  EXPECT_TRUE(wide.slice.contains(wide_area.w - 1, wide_area.y + 1));
+  EXPECT_TRUE(view_rects(ViewMode::slice, area).view3d.empty());
+  // Panels wider than the window leave the views the whole window.
+  EXPECT_FLOAT_EQ(views_area(600, 400, 370, 390, 0, 0).w, 600);
+
+  ViewSettings v;
+  PointsShown p = points_shown_3d(v, true, false);  // surface, no mesh, no clip
+  EXPECT_TRUE(p.samples);
+  EXPECT_FALSE(p.interior);  // hidden inside the surface
+  v.clip_enabled = true;
+  EXPECT_TRUE(points_shown_3d(v, true, false).interior);
+  p = points_shown_3d(v, true, true);  // the mesh's vertices are B and I
+  EXPECT_FALSE(p.samples);
+  EXPECT_FALSE(p.interior);
+  EXPECT_FALSE(p.shallow);  // inside the kept tets
+  v.overlays.poles = true;
+  EXPECT_TRUE(points_shown_3d(v, true, true).poles);
+  v.show_surface = false;  // the mesh hidden: every point shows
+  p = points_shown_3d(v, true, true);
+  EXPECT_TRUE(p.samples && p.interior && p.shallow && p.poles);
+  v.show_points = false;
+  EXPECT_FALSE(points_shown_3d(v, true, true).poles);
+}
+
+TEST(ViewSettings, SliceIndexDefaultsToTheObject) {
+  render::SceneData scene;
+  ViewSettings v;
+  EXPECT_EQ(effective_slice_index(v, scene), 0);
+  auto image = std::make_shared<Image>();
+  image->voxels.grid.dims = {10, 20, 30};
+  scene.image = image;
+  EXPECT_EQ(effective_slice_index(v, scene), 15);
+  auto vol = std::make_shared<render::VolumeLayers>();
+  vol->grid.dims = {4, 4, 6};
+  vol->offset = {2, 3, 20};
+  scene.volumes = vol;
+  EXPECT_EQ(effective_slice_index(v, scene), 23);
+  v.slice_index = 7;
+  EXPECT_EQ(effective_slice_index(v, scene), 7);
+  v.slice_index = 99;  // out of range: back to the default
+  EXPECT_EQ(effective_slice_index(v, scene), 23);
+}
+
+TEST(ParameterInfo, EveryPresetKeyHasATooltip) {
+  const nlohmann::json keys = to_json(Parameters{});
+  EXPECT_EQ(keys.size(), parameter_infos().size());
+  for (const auto& [key, value] : keys.items()) {
+    const ParameterInfo* info = find_parameter_info(key);
+    ASSERT_NE(info, nullptr) << key;
+    EXPECT_FALSE(info->tooltip.empty()) << key;
+    // Lengths say their unit.
+    if (key.size() > 3 && key.substr(key.size() - 3) == "_mm")
+      EXPECT_NE(info->tooltip.find("mm"), std::string_view::npos) << key;
+  }
+}
+
+TEST(RecentFiles, MostRecentFirstNoDuplicatesPersisted) {
+  const auto file = temp_dir("recent") / "sub" / "recent.txt";
+  std::filesystem::remove(file);
+  {
+    RecentFiles r(file.string(), 3);
+    r.load();
+    EXPECT_TRUE(r.files().empty());
+    EXPECT_TRUE(r.add("/data/a.nii"));
+    r.add("/data/b.nii");
+    r.add("/data/a.nii");
+    r.add("/data/c.nii");
+    r.add("/data/d.nii");
+    EXPECT_EQ(r.files(), (std::vector<std::string>{"/data/d.nii", "/data/c.nii", "/data/a.nii"}));
+  }
+  RecentFiles again(file.string(), 3);
+  again.load();
+  EXPECT_EQ(again.files().front(), "/data/d.nii");
+  EXPECT_EQ(again.files().size(), 3u);
+  RecentFiles nowhere("", 3);
+  EXPECT_FALSE(nowhere.add("x"));
+}
+
+TEST(FrameStats, Summary) {
+  const FrameStats s = frame_stats({10, 20, 30, 40, 120});
+  EXPECT_EQ(s.frames, 5u);
+  EXPECT_DOUBLE_EQ(s.mean_ms, 44);
+  EXPECT_DOUBLE_EQ(s.median_ms, 30);
+  EXPECT_DOUBLE_EQ(s.max_ms, 120);
+  EXPECT_EQ(s.over_50ms, 1u);
+  EXPECT_EQ(s.over_100ms, 1u);
+  EXPECT_EQ(frame_stats({}).frames, 0u);
+  EXPECT_NE(describe("x", s).find("max 120.0 ms"), std::string::npos);
+}
+
+TEST(FrameStats, BenchmarkPhases) {
+  BenchmarkRecorder b(3);
+  b.record(40, "CVT sampling", false);
+  b.record(20, "preprocess", false);
+  b.record(5, "", false);  // idle but not yet drawn: not counted
+  EXPECT_LT(b.sweep_position(), 0);
+  for (int i = 0; i < 3; ++i) b.record(10, "", true);
+  EXPECT_DOUBLE_EQ(b.sweep_position(), 0.3);  // the sweep starts
+  for (int i = 0; i < 3; ++i) b.record(12, "", true);
+  EXPECT_TRUE(b.done());
+  const std::string report = b.report();
+  EXPECT_NE(report.find("while jobs ran: 2 frames"), std::string::npos) << report;
+  EXPECT_NE(report.find("during Lloyd iterations: 1 frames"), std::string::npos) << report;
+  EXPECT_NE(report.find("static view: 3 frames, mean 10.0 ms"), std::string::npos) << report;
+  EXPECT_NE(report.find("rebuilt every frame): 3 frames, mean 12.0 ms"), std::string::npos)
+      << report;
+}
+
+TEST(PipelineWorker, RunsInOrderCancelsAndDropsAfterAFailure) {
+  PipelineWorker worker(1);
+  std::vector<int> order;
+  for (int i = 0; i < 3; ++i)
+    worker.submit("job" + std::to_string(i), [&order, i](JobContext&) { order.push_back(i); });
+  worker.wait_idle();
+  EXPECT_EQ(order, (std::vector<int>{0, 1, 2}));
+  for (int i = 0; i < 3; ++i) {
+    auto o = worker.take_outcome();
+    ASSERT_TRUE(o);
+    EXPECT_EQ(o->status, JobOutcome::Status::ok);
+    EXPECT_NE(o->scene, nullptr);  // every job leaves a snapshot
+  }
+  EXPECT_FALSE(worker.take_outcome());
+
+  // A failure drops what was queued behind it; its message is one line.
+  worker.submit("bad", [](JobContext&) { throw InputError("file x: broken\nsecond line"); });
+  worker.submit("after", [&order](JobContext&) { order.push_back(99); });
+  worker.wait_idle();
+  auto bad = worker.take_outcome();
+  ASSERT_TRUE(bad);
+  EXPECT_EQ(bad->status, JobOutcome::Status::failed);
+  EXPECT_EQ(bad->error, "file x: broken");
+  EXPECT_FALSE(worker.take_outcome());
+  EXPECT_EQ(order.back(), 2);
+
+  // Cancel stops a running job at its next progress check and drops the queue.
+  std::atomic<bool> started{false};
+  worker.submit("long", [&started](JobContext& ctx) {
+    started = true;
+    for (;;) {
+      ctx.progress("spinning", 0.5);
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+  });
+  worker.submit("queued", [&order](JobContext&) { order.push_back(100); });
+  while (!started) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  EXPECT_TRUE(worker.busy());
+  EXPECT_EQ(worker.status().job, "long");
+  worker.cancel();
+  worker.wait_idle();
+  auto cancelled = worker.take_outcome();
+  ASSERT_TRUE(cancelled);
+  EXPECT_EQ(cancelled->status, JobOutcome::Status::cancelled);
+  EXPECT_FALSE(worker.take_outcome());
+  EXPECT_EQ(order.back(), 2);
+  EXPECT_FALSE(worker.busy());
+}
+
+TEST(Session, OpensRunsStepsAndKeepsTheLastGoodStateAfterErrors) {
+  Session s;
+  s.open_image(torus_file());
+  s.run_through(Stage::surface);
+  settle(s);
+  ASSERT_NE(s.scene(), nullptr);
+  EXPECT_EQ(s.failed_jobs, 0u);
+  EXPECT_EQ(s.image_path, torus_file());
+  ASSERT_NE(s.scene()->surface_samples, nullptr);
+  EXPECT_EQ(s.scene()->mesh, nullptr);
+
+  // Lloyd steps post a live state per iteration; the final snapshot has all iterations.
+  s.step_lloyd(3);
+  settle(s);
+  ASSERT_NE(s.lloyd(), nullptr);
+  EXPECT_EQ(s.lloyd()->history.size(), 3u);
+
+  s.run_all();
+  settle(s);
+  ASSERT_NE(s.scene()->mesh, nullptr);
+  ASSERT_NE(s.scene()->quality, nullptr);
+  for (StageState st : s.stage_states()) EXPECT_EQ(st, StageState::done);
+
+  // An edit marks stages pending without touching the pipeline; re-run applies and runs them.
+  const auto mesh_before = s.scene()->mesh;
+  s.edited.seed = 5;
+  EXPECT_TRUE(s.edits_pending());
+  EXPECT_EQ(s.stage_states()[int(Stage::surface)], StageState::done);
+  EXPECT_EQ(s.stage_states()[int(Stage::cvt)], StageState::pending);
+  EXPECT_EQ(s.scene()->mesh, mesh_before);  // still drawn while pending
+  s.rerun_stale();
+  settle(s);
+  EXPECT_FALSE(s.edits_pending());
+  ASSERT_NE(s.scene()->mesh, nullptr);
+  EXPECT_NE(s.scene()->mesh, mesh_before);
+
+  // A bad file fails with a message; the previous image and results stay.
+  const auto scene_before = s.scene_ptr();
+  s.open_image("/nonexistent/liver.nii.gz");
+  settle(s);
+  EXPECT_EQ(s.failed_jobs, 1u);
+  EXPECT_TRUE(s.messages.back().error);
+  EXPECT_NE(s.first_error.find("/nonexistent/liver.nii.gz"), std::string::npos);
+  ASSERT_NE(s.scene(), nullptr);
+  EXPECT_EQ(s.scene()->mesh, scene_before->mesh);
+  EXPECT_EQ(s.image_path, torus_file());
+
+  // Export through the worker.
+  const std::string out = (temp_dir("export") / "torus.vtu").string();
+  s.export_mesh(out);
+  settle(s);
+  EXPECT_TRUE(std::filesystem::exists(out));
+
+  // A preset round trip on the UI thread.
+  const std::string preset = (temp_dir("preset") / "p.json").string();
+  s.edited.r = 0.35;
+  EXPECT_TRUE(s.save_preset(preset));
+  s.edited.r = 0.5;
+  EXPECT_TRUE(s.load_preset(preset));
+  EXPECT_DOUBLE_EQ(s.edited.r, 0.35);
+  EXPECT_FALSE(s.load_preset("/nonexistent.json"));
+}
+
+TEST(Session, AutoRerunStartsOnceAfterAQuietEdit) {
+  Session s;
+  s.open_image(torus_file());
+  s.run_through(Stage::surface);
+  settle(s);
+  s.auto_rerun = true;
+  s.edited.r = 0.3;
+  s.parameters_edited(100.0);
+  s.poll(100.1);  // too soon after the edit
+  EXPECT_FALSE(s.busy());
+  s.poll(101.0);
+  s.wait_idle();
+  s.poll(101.1);
+  EXPECT_FALSE(s.edits_pending());
+  EXPECT_DOUBLE_EQ(s.scene()->parameters.r, 0.3);
+  // An invalid value is not run (and not retried in a loop).
+  s.edited.r = 3.0;
+  s.parameters_edited(102.0);
+  s.poll(110.0);
+  EXPECT_FALSE(s.busy());
+  EXPECT_EQ(s.failed_jobs, 0u);
+}
+
+TEST(PipelineWorker, PostsTheSitesAfterEachLloydIteration) {
+  PipelineWorker worker(1);
+  std::atomic<bool> stepped{false}, release{false};
+  worker.submit("steps", [&](JobContext& ctx) {
+    auto image = std::make_shared<const Image>(read_image(torus_file()));
+    ctx.pipeline.set_image(image);
+    ctx.image = image;
+    ctx.pipeline.step_lloyd(3, ctx.progress);
+    stepped = true;
+    while (!release) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  });
+  while (!stepped) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  // Reported before iterations 2 and 3: the newest is the state after iteration 2, while the
+  // job still runs (the UI draws it without touching the pipeline).
+  const auto live = worker.take_lloyd_update();
+  ASSERT_NE(live, nullptr);
+  EXPECT_EQ(live->history.size(), 2u);
+  EXPECT_FALSE(live->sites_world.empty());
+  EXPECT_EQ(worker.take_lloyd_update(), nullptr);  // taken
+  release = true;
+  worker.wait_idle();
+  const auto done = worker.take_outcome();
+  ASSERT_TRUE(done);
+  ASSERT_NE(done->scene->lloyd, nullptr);
+  EXPECT_EQ(done->scene->lloyd->history.size(), 3u);
+}
+
+TEST(Session, GreyImagesGetAnIsoValue) {
+  // The torus as grey values 0..200 (float), no iso given anywhere.
+  const Phantom p = torus_phantom({0, 0, 0}, 9.0, 3.5);
+  Image grey = rasterize(p, grid_around(p, {0.8, 0.8, 1.0}, rotation_matrix({0, 0, 1}, 0)));
+  for (float& v : grey.voxels.data) v = v * 200.0f;
+  grey.integer_valued = false;
+  grey.pixel_type = "float32";
+  const std::string file = (temp_dir("grey") / "grey.nii.gz").string();
+  write_image(grey, file);
+  Session s;
+  s.open_image(file);
+  s.run_through(Stage::surface);  // submitted before the UI knows the image is grey
+  settle(s);
+  EXPECT_EQ(s.failed_jobs, 0u) << s.first_error;
+  ASSERT_TRUE(s.edited.iso.has_value());
+  EXPECT_DOUBLE_EQ(*s.edited.iso, 100.0);
+  EXPECT_FALSE(s.edits_pending());  // the runs used the same default
+  ASSERT_NE(s.scene()->surface_samples, nullptr);
+}
