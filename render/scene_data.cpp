@@ -126,6 +126,10 @@ std::shared_ptr<const SceneData> SceneDataBuilder::update(const Pipeline& pipeli
   s->surface_samples =
       pick(prev ? prev->surface_samples : nullptr, surf != nullptr, ran[int(Stage::surface)],
            [&] { return std::make_shared<const std::vector<Vec3>>(surf->world); });
+  s->surface_voxel_samples =
+      pick(prev ? prev->surface_voxel_samples : nullptr, surf != nullptr,
+           ran[int(Stage::surface)],
+           [&] { return std::make_shared<const std::vector<Vec3>>(surf->voxel_world); });
   // Lloyd can move without a stage record (step_lloyd), and its state is small: always copy.
   if (pipeline.lloyd()) s->lloyd = make_lloyd_state(*pipeline.lloyd());
   const ShallowResult* sh = pipeline.shallow();

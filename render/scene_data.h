@@ -58,6 +58,7 @@ struct SceneData {
   double default_interior_spacing_mm = 0;
   std::shared_ptr<const VolumeLayers> volumes;
   std::shared_ptr<const std::vector<Vec3>> surface_samples;  // B (world mm)
+  std::shared_ptr<const std::vector<Vec3>> surface_voxel_samples;  // B at voxel centres (world)
   std::shared_ptr<const LloydState> lloyd;
   std::shared_ptr<const ShallowResult> shallow;
   std::shared_ptr<const MeshLayers> mesh;

@@ -39,6 +39,8 @@ SliceView compose_slice_view(const SliceRequest& r, VoronoiCache* cache) {
   auto add = [&](const std::vector<Vec3>& points, Rgba8 color) {
     append_points_near_slice(points, grid, r.axis, r.index, half, color, out.points);
   };
+  if (o.voxel_samples && scene.surface_voxel_samples)
+    add(*scene.surface_voxel_samples, kVoxelSampleColor);
   if (o.samples && scene.surface_samples) add(*scene.surface_samples, kSampleColor);
   if (const std::vector<Vec3>* interior = interior_points(scene, lloyd); o.interior && interior)
     add(*interior, kInteriorColor);

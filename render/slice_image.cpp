@@ -29,14 +29,15 @@ std::array<int, 3> voxel_of(int axis, int index, int u, int v) {
 }  // namespace
 
 const std::vector<std::string>& overlay_names() {
-  static const std::vector<std::string> names{"object",   "lfs",     "medial", "samples",
-                                              "interior", "shallow", "poles",  "voronoi"};
+  static const std::vector<std::string> names{"object",  "lfs",   "medial",  "samples",
+                                              "interior", "shallow", "poles", "voronoi",
+                                              "voxel-samples"};
   return names;
 }
 
 bool set_overlay(Overlays& o, const std::string& name, bool on) {
-  bool* flags[] = {&o.object,   &o.lfs,     &o.medial, &o.samples,
-                   &o.interior, &o.shallow, &o.poles,  &o.voronoi};
+  bool* flags[] = {&o.object,   &o.lfs,     &o.medial, &o.samples,     &o.interior,
+                   &o.shallow,  &o.poles,   &o.voronoi, &o.voxel_samples};
   const auto& names = overlay_names();
   for (std::size_t i = 0; i < names.size(); ++i)
     if (names[i] == name) {

@@ -23,11 +23,12 @@ struct Overlays {
   bool shallow = true;   // removed shallow points (red)
   bool poles = false;    // exterior poles EP
   bool voronoi = false;  // discrete Voronoi cells of the current Lloyd iteration
+  bool voxel_samples = false;  // B at their voxel centres, before projection (slice view)
   bool operator==(const Overlays&) const = default;
 };
 
 // Sets the overlay called `name` (object, lfs, medial, samples, interior, shallow, poles,
-// voronoi); false for an unknown name.
+// voronoi, voxel-samples); false for an unknown name.
 bool set_overlay(Overlays& overlays, const std::string& name, bool on);
 const std::vector<std::string>& overlay_names();
 
@@ -79,6 +80,7 @@ void append_points_near_slice(const std::vector<Vec3>& world, const Grid& image_
 
 // The standard colours of each kind of point (shared with the 3D view and the legend).
 inline constexpr Rgba8 kSampleColor{250, 200, 60, 255};    // B: amber
+inline constexpr Rgba8 kVoxelSampleColor{160, 110, 40, 255};  // B before projection: brown
 inline constexpr Rgba8 kInteriorColor{70, 150, 255, 255};  // I: blue
 inline constexpr Rgba8 kShallowColor{235, 40, 40, 255};    // shallow: red
 inline constexpr Rgba8 kPoleColor{190, 90, 255, 255};      // EP: violet

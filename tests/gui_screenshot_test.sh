@@ -16,11 +16,17 @@ png=$1 width=$2 height=$3 fraction=$4 colours=$5
 shift 5
 mkdir -p "$(dirname "$png")"
 rm -f "$png"
-stderr=$(mktemp)
-trap 'rm -f "$stderr"' EXIT
+stderr=$(mktemp) rcfile=$(mktemp)
+trap 'rm -f "$stderr" "$rcfile"' EXIT
 SECONDS=0
-"$xvfb" -a -s "-screen 0 1280x800x24" "$gui" "$@" --screenshot "$png" --exit 2>"$stderr"
-rc=$?
+# The program's own exit code goes through a file: xvfb-run sometimes fails to clean up its
+# temporary folder after a quick exit and then returns its own code and message instead.
+"$xvfb" -a -s "-screen 0 1280x800x24" sh -c '"$@"; echo $? >"$0"' "$rcfile" \
+  "$gui" "$@" --screenshot "$png" --exit 2>"$stderr"
+rc=$(cat "$rcfile")
+rc=${rc:-99}
+grep -v '^xvfb-run: ' "$stderr" >"$stderr.own" || true
+mv "$stderr.own" "$stderr"
 cat "$stderr" >&2
 echo "cvtmesh-gui: exit $rc after ${SECONDS} s"
 if [ "$expect_failure" = 1 ]; then

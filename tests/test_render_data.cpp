@@ -108,6 +108,9 @@ TEST(SliceImage, PointsNearTheSlice) {
   EXPECT_TRUE(set_overlay(o, "voronoi", true));
   EXPECT_TRUE(o.voronoi);
   EXPECT_FALSE(set_overlay(o, "nonsense", true));
+  EXPECT_FALSE(o.voxel_samples);
+  EXPECT_TRUE(set_overlay(o, "voxel-samples", true));
+  EXPECT_TRUE(o.voxel_samples);
   EXPECT_GE(slice_upsample(438, 353), 2);
   EXPECT_EQ(slice_upsample(4000, 10), 1);
 }
@@ -164,6 +167,10 @@ TEST(SceneData, SnapshotsShareWhatDidNotChange) {
   EXPECT_EQ(partial->volumes, full->volumes);
   ASSERT_NE(partial->surface_samples, nullptr);
   EXPECT_NE(partial->surface_samples, full->surface_samples);
+  // Both positions of B travel, so the slice view can show them side by side.
+  ASSERT_NE(partial->surface_voxel_samples, nullptr);
+  EXPECT_EQ(partial->surface_voxel_samples->size(), partial->surface_samples->size());
+  EXPECT_EQ(*partial->surface_voxel_samples, pipe.surface()->voxel_world);
   EXPECT_EQ(partial->mesh, nullptr);
   EXPECT_TRUE(partial->stale[int(Stage::mesh)]);
   // Re-running evaluation is noticed even though it records its parts by their own names.

@@ -113,6 +113,8 @@ void draw_legends(UiContext& ctx, const ViewRects& rects) {
     if (v.overlays.voronoi && ctx.session.lloyd())
       ImGui::Text("Voronoi cells, Lloyd iteration %zu", ctx.session.lloyd()->history.size());
     const render::Overlays& o = v.overlays;
+    if (o.voxel_samples && scene->surface_voxel_samples)
+      point_key("B at voxel centres (unprojected)", render::kVoxelSampleColor);
     points_key(*scene, {o.samples, o.interior, o.shallow, o.poles}, o.medial);
     ImGui::End();
   }

@@ -64,6 +64,8 @@ void draw_view_panel(UiContext& ctx) {
     ImGui::SameLine(260);
     ImGui::Checkbox("medial axis", &o.medial);
     ImGui::Checkbox("samples B", &o.samples);
+    ImGui::SameLine();
+    ImGui::Checkbox("B unprojected", &o.voxel_samples);
     ImGui::SameLine(130);
     ImGui::Checkbox("interior I", &o.interior);
     ImGui::SameLine(260);
