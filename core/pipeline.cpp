@@ -81,7 +81,8 @@ Stage first_changed_stage(const Parameters& a, const Parameters& b) {
       a.interior_points != b.interior_points || a.epsilon_mm != b.epsilon_mm ||
       a.max_iterations != b.max_iterations || a.seed != b.seed)
     return Stage::cvt;
-  return Stage::count;  // optimize and threads do not change stages 1–5
+  if (a.optimize != b.optimize) return Stage::mesh;  // stage 6 runs inside the mesh stage
+  return Stage::count;  // threads and the guards do not change results
 }
 
 void Pipeline::set_image(std::shared_ptr<const Image> image) {
@@ -103,7 +104,10 @@ void Pipeline::invalidate_from(Stage s) {
     case Stage::surface: surface_.reset(); [[fallthrough]];
     case Stage::cvt: lloyd_.reset(); [[fallthrough]];
     case Stage::shallow: shallow_.reset(); [[fallthrough]];
-    case Stage::mesh: mesh_.reset(); [[fallthrough]];
+    case Stage::mesh:
+      mesh_.reset();
+      optimization_.reset();
+      [[fallthrough]];
     case Stage::evaluate:
       quality_.reset();
       fidelity_.reset();
@@ -168,6 +172,12 @@ void Pipeline::run_stage(Stage s, const Progress& progress) {
       mesh_ = std::make_unique<MeshGenerationResult>(
           build_delaunay_mesh(surface_->world, shallow_->kept_world, occupancy,
                               mesh_options(parameters_), progress));
+      // Stage 6 (optional) works in place on the mesh; the viewer cannot step it yet.
+      if (parameters_.optimize == "default") {
+        progress("optimisation", 0.0);
+        optimization_ = std::make_unique<OptimizationResult>(
+            optimize_mesh(mesh_->mesh, &preprocess_->indicator, {}, progress));
+      }
       break;
     }
     case Stage::evaluate: {
@@ -192,8 +202,6 @@ void Pipeline::run_stage(Stage s, const Progress& progress) {
 }
 
 void Pipeline::run_through(Stage last, const Progress& progress) {
-  if (parameters_.optimize != "none")  // stage 6 is not wired in yet: say so instead of ignoring it
-    throw InputError("optimize: '" + parameters_.optimize + "' is not available yet; use none");
   for (int s = 0; s <= int(last); ++s)
     if (!done_[s]) run_stage(Stage(s), progress);
 }

@@ -14,6 +14,7 @@
 #include "fidelity.h"
 #include "image.h"
 #include "mesh_generation.h"
+#include "mesh_optimization.h"
 #include "parameters.h"
 #include "preprocess.h"
 #include "progress.h"
@@ -66,6 +67,7 @@ class Pipeline {
   const LloydStepper* lloyd() const { return lloyd_.get(); }
   const ShallowResult* shallow() const { return shallow_.get(); }
   const MeshGenerationResult* mesh() const { return mesh_.get(); }
+  const OptimizationResult* optimization() const { return optimization_.get(); }  // stage 6
   const QualityReport* quality() const { return quality_.get(); }
   const FidelityReport* fidelity() const { return fidelity_.get(); }
   // Default interior spacing: the area-weighted mean spacing r·lfs of the surface samples.
@@ -86,6 +88,7 @@ class Pipeline {
   std::unique_ptr<LloydStepper> lloyd_;
   std::unique_ptr<ShallowResult> shallow_;
   std::unique_ptr<MeshGenerationResult> mesh_;
+  std::unique_ptr<OptimizationResult> optimization_;
   std::unique_ptr<QualityReport> quality_;
   std::unique_ptr<FidelityReport> fidelity_;
   std::vector<StageRecord> records_;

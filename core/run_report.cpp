@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 
 #include "memory.h"
+#include "mesh_optimization.h"
 #include "preset.h"
 
 namespace cvt {
@@ -66,6 +67,7 @@ nlohmann::json run_report(const Pipeline& pipe) {
     counts["repair_passes"] = m->repair.passes;
   }
   j["counts"] = counts;
+  if (const OptimizationResult* o = pipe.optimization()) j["optimization"] = to_json(*o);
   if (const QualityReport* q = pipe.quality()) j["quality"] = to_json(*q);
   if (const FidelityReport* f = pipe.fidelity()) j["fidelity"] = to_json(*f);
   return j;
