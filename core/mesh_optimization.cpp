@@ -144,12 +144,6 @@ bool MeshOptimizer::step(const Progress& progress) {
       flips = opt::improve_topology(m, t);
     });
   }
-  auto dbg = [&](const char* what) {
-    if (!std::getenv("CVT_OPT_DEBUG")) return;
-    const Validity v = check_validity(m.to_mesh());
-    std::fprintf(stderr, "DEBUG pass %d after %s: valid %d shared3 %zu\n", pass, what, v.valid, v.faces_shared_by_more_than_two);
-  };
-  dbg("flips");
   progress.check_cancelled();
   if (options_.odt_iterations > 0 && pass <= options_.odt_passes) {
     odt_s = timed([&] { odt = opt::odt_smooth(m, options_.odt_iterations, options_.odt_flips); });
@@ -165,7 +159,6 @@ bool MeshOptimizer::step(const Progress& progress) {
       smooth = opt::smooth_vertices(m, surface_.get(), s);
     });
   }
-  dbg("smoothing");
   progress.check_cancelled();
   if (options_.insert_vertices) {
     insertion_s = timed([&] {
@@ -174,7 +167,6 @@ bool MeshOptimizer::step(const Progress& progress) {
       inserted = opt::insert_vertices(m, in);
     });
   }
-  dbg("insertion");
   PassStats stats = statistics(pass);
   stats.flips_s = flips_s;
   stats.odt_s = odt_s;
