@@ -57,7 +57,8 @@ struct MeshGenerationResult {
   std::size_t removed_small_components = 0;            // tets removed by rule 4
   std::vector<std::array<Vec3, 4>> removed_by_repair;  // tets removed by rules 3–4, for the viewer
   std::size_t unused_samples = 0;         // samples of B ∪ I no kept tet references
-  std::vector<int> vertex_source;         // for each mesh vertex: index into B, or |B| + index in I
+  std::vector<int> vertex_source;         // for each mesh vertex: index into B, or |B| + index
+                                          // in I; −1 for a vertex stage 6 inserted
 };
 
 MeshGenerationResult build_delaunay_mesh(const std::vector<Vec3>& surface_samples,

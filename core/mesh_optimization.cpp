@@ -8,8 +8,6 @@
 #include <chrono>
 #include <cmath>
 #include <ctime>
-#include <cstdio>
-#include <cstdlib>
 #include <nlohmann/json.hpp>
 
 #include "errors.h"
@@ -77,6 +75,7 @@ MeshOptimizer::MeshOptimizer(const TetMesh& mesh, const Volume<float>* indicator
   const auto t0 = std::chrono::steady_clock::now();
   const double c0 = process_cpu_s();
   validate(mesh, options_);
+  input_vertices_ = std::int32_t(mesh.vertices.size());
   opt::QualityScale scale;
   scale.sine = std::sin(options_.target_dihedral_deg * kPi / 180.0);
   work_ = std::make_unique<opt::WorkMesh>(mesh, scale);
@@ -104,13 +103,18 @@ MeshOptimizer::MeshOptimizer(const TetMesh& mesh, const Volume<float>* indicator
   result_.setup_s = seconds_since(t0);
   result_.wall_s = result_.setup_s;
   result_.cpu_s = process_cpu_s() - c0;
-  result_.history.push_back(statistics(0));
+  result_.history.push_back(statistics(0, true));
+  finished_ = options_.max_passes == 0;
 }
 
 MeshOptimizer::~MeshOptimizer() = default;
 
-TetMesh MeshOptimizer::mesh() const {
-  return work_->to_mesh();
+TetMesh MeshOptimizer::mesh(std::vector<std::int32_t>* origin) const {
+  TetMesh m = work_->to_mesh(origin);
+  if (origin)
+    for (std::int32_t& o : *origin)
+      if (o >= input_vertices_) o = -1;
+  return m;
 }
 
 bool MeshOptimizer::step(const Progress& progress) {
@@ -167,7 +171,13 @@ bool MeshOptimizer::step(const Progress& progress) {
       inserted = opt::insert_vertices(m, in);
     });
   }
-  PassStats stats = statistics(pass);
+  const std::size_t changes = flips.edge_removals + flips.face_flips + flips.boundary_flips +
+                              flips.corner_removals + odt.edge_removals + odt.face_flips +
+                              odt.moved_interior + smooth.moved_interior + smooth.moved_surface +
+                              inserted.inserted;
+  if (changes == 0 || pass >= options_.max_passes) finished_ = true;
+  // Full figures after every pass, or only for the last one.
+  PassStats stats = statistics(pass, options_.pass_statistics || finished_);
   stats.flips_s = flips_s;
   stats.odt_s = odt_s;
   stats.smoothing_s = smoothing_s;
@@ -177,6 +187,7 @@ bool MeshOptimizer::step(const Progress& progress) {
   stats.edge_removals = flips.edge_removals + odt.edge_removals;
   stats.face_flips = flips.face_flips + odt.face_flips;
   stats.boundary_flips = flips.boundary_flips;
+  stats.corner_removals = flips.corner_removals;
   stats.odt_moved = odt.moved_interior;
   stats.moved_interior = smooth.moved_interior;
   stats.moved_surface = smooth.moved_surface;
@@ -184,16 +195,13 @@ bool MeshOptimizer::step(const Progress& progress) {
   result_.wall_s += stats.wall_s;
   result_.cpu_s += cpu;
   result_.boundary_flips += flips.boundary_flips;
+  result_.corner_removals += flips.corner_removals;
   result_.inserted_vertices += inserted.inserted;
   result_.max_boundary_shift_mm =
       std::max(result_.max_boundary_shift_mm, flips.max_boundary_shift_mm);
   result_.max_flip_face_distance_mm =
       std::max(result_.max_flip_face_distance_mm, flips.max_face_distance_mm);
   result_.history.push_back(stats);
-  const std::size_t changes = stats.edge_removals + stats.face_flips + stats.boundary_flips +
-                              stats.odt_moved + stats.moved_interior + stats.moved_surface +
-                              stats.inserted;
-  if (changes == 0 || pass >= options_.max_passes) finished_ = true;
   return true;
 }
 
@@ -203,7 +211,7 @@ int MeshOptimizer::run(const Progress& progress) {
   return n;
 }
 
-PassStats MeshOptimizer::statistics(int pass) const {
+PassStats MeshOptimizer::statistics(int pass, bool full) const {
   const opt::WorkMesh& m = *work_;
   PassStats s;
   s.pass = pass;
@@ -214,7 +222,7 @@ PassStats MeshOptimizer::statistics(int pass) const {
   for (std::size_t t = 0; t < m.tets.size(); ++t)
     if (!opt::is_dead(m.tets[t])) qmin = std::min(qmin, m.quality[t]);
   s.min_quality = qmin;
-  if (!options_.pass_statistics) return s;
+  if (!full) return s;
   struct Acc {
     double min_d = 180, max_d = 0;
     std::array<std::size_t, 4> below{};
@@ -277,8 +285,9 @@ OptimizationResult optimize_mesh(TetMesh& mesh, const Volume<float>* indicator,
                                  const OptimizationOptions& options, const Progress& progress) {
   MeshOptimizer optimizer(mesh, indicator, options);
   optimizer.run(progress);
-  mesh = optimizer.mesh();
-  return optimizer.result();
+  OptimizationResult r = optimizer.result();
+  mesh = optimizer.mesh(&r.vertex_origin);
+  return r;
 }
 
 nlohmann::json to_json(const OptimizationResult& r) {
@@ -296,6 +305,7 @@ nlohmann::json to_json(const OptimizationResult& r) {
                         {"edge_removals", s.edge_removals},
                         {"face_flips", s.face_flips},
                         {"boundary_flips", s.boundary_flips},
+                        {"corner_removals", s.corner_removals},
                         {"odt_moved", s.odt_moved},
                         {"moved_interior", s.moved_interior},
                         {"moved_surface", s.moved_surface},
@@ -324,6 +334,7 @@ nlohmann::json to_json(const OptimizationResult& r) {
           {"max_boundary_shift_mm", r.max_boundary_shift_mm},
           {"max_flip_face_distance_mm", r.max_flip_face_distance_mm},
           {"boundary_flips", r.boundary_flips},
+          {"corner_removals", r.corner_removals},
           {"inserted_vertices", r.inserted_vertices},
           {"passes", passes}};
 }

@@ -3,8 +3,9 @@
 // a dihedral angle is below target_dihedral_deg (or above 180° minus it) or a Table I measure is
 // in its bad bin; each pass, worst tets first:
 //   1. flips: edge removal (3-2, 4-4, … the ring re-triangulated by dynamic programming), 2-3
-//      face flips, and boundary edge flips where the boundary is convex (the diagonal of two
-//      boundary triangles swapped, only when the new triangles follow the segmentation surface);
+//      face flips, boundary edge flips where the boundary is convex (the diagonal of two
+//      boundary triangles swapped, only when the new triangles follow the segmentation surface),
+//      and removal of corner tets (a spike of one tet on the surface, with its corner vertex);
 //   2. in the first passes, for a better overall distribution, one global ODT sweep over the
 //      interior vertices (towards the volume-weighted mean of their tets' circumcentres), and
 //      flips on mediocre tets as well as bad ones;
@@ -13,15 +14,17 @@
 //   4. where none of that helped (needles on tiny boundary triangles, wedges across thick parts
 //      with no vertex inside), an interior vertex is inserted (cavity + star re-triangulation).
 // A change is kept only when the worst tet it makes is better than the worst it replaces (ODT:
-// no tet turns bad, no bad tet gets worse), so the worst tet never gets worse; new tets are
+// no tet turns bad, no bad tet gets worse), so the worst tet never gets worse (once no tet is
+// bad, none turns bad); new tets are
 // positively oriented and fill the region of the ones they replace, so validity and the
-// boundary's topology are kept. Input vertices keep their indices (none is removed); inserted
-// ones are appended. Deterministic: the same mesh and options give the same result, whatever
-// the thread count.
+// boundary's topology are kept. Input vertices keep their order (only removed corners leave
+// gaps, see OptimizationResult::vertex_origin); inserted ones are appended. Deterministic: the same
+// mesh and options give the same result, whatever the thread count.
 #pragma once
 
 #include <array>
 #include <cstddef>
+#include <cstdint>
 #include <memory>
 #include <nlohmann/json_fwd.hpp>
 #include <string>
@@ -42,11 +45,12 @@ struct OptimizationOptions {
   // Tets with a dihedral angle below this or above 180° minus this are worked on (degrees).
   double target_dihedral_deg = 20;
   int max_passes = 10;  // a pass that changes nothing ends the optimisation early
-  bool flips = true;   // edge removal and 2-3 flips
+  bool flips = true;    // edge removal and 2-3 flips
   // Boundary edge flips: where the boundary is convex, the diagonal of the quad of two boundary
   // triangles is swapped (the tets between re-triangulated, or a flat tet lying on the boundary
-  // removed) when the new triangles lie within max_face_distance_voxels (smallest voxel
-  // spacings) of the segmentation surface (0.5 level; centroids and new edge's midpoint) …
+  // removed), and corner tets are removed, when the new triangles lie within
+  // max_face_distance_voxels (smallest voxel spacings) of the segmentation surface (0.5 level;
+  // centroids and new edge's midpoint) …
   bool boundary_flips = true;
   double max_face_distance_voxels = 0.5;
   double max_boundary_shift_mm = 0;  // … without the indicator: when the boundary moves by
@@ -62,16 +66,16 @@ struct OptimizationOptions {
   int global_flip_passes = 1;      // … and in the first passes, flips also on tets whose
   double global_flip_below = 1.5;  //   quality (see min_quality) is below this, not only on
                                    //   bad ones (below 1). On the liver: +2.5 % good tets in
-                                   //   each Table I measure and min dihedral 16° (vs 15°) for
-                                   //   +0.3 s.
+                                   //   each Table I measure for ~0.2 s.
   bool odt_flips = false;          // Delaunay flips after each ODT sweep (+1.5 % good
                                    // tets on the liver for +60 % time: off)
   // Boundary vertices farther than this from the level set (smallest voxel spacings) are not
   // surface samples (e.g. interior samples exposed by stage 5's peeling): they stay fixed.
   double surface_tolerance_voxels = 0.05;
-  // Table I bins and dihedral figures after every pass, for the history (~0.1 s per pass on the
-  // liver, not counted in the timings); without, only the counts and min_quality.
-  bool pass_statistics = true;
+  // Table I bins and dihedral figures after every pass, for a viewer's history (~0.1 s per
+  // pass on the liver, not counted in the timings); without, only before the first pass and
+  // after the last (the others get the counts and min_quality).
+  bool pass_statistics = false;
 };
 
 // Figures of the mesh after one pass (or before the first).
@@ -84,15 +88,17 @@ struct PassStats {
   double min_dihedral_deg = 0, max_dihedral_deg = 0;
   // Smallest quality the optimiser works with: the minimum over the tets of min(smallest sine of
   // a dihedral angle / sine of target_dihedral_deg, each Table I measure / its bad-bin edge);
-  // a tet is bad below 1. Never decreases from pass to pass.
+  // a tet is bad below 1. While below 1 it never decreases from pass to pass; once above, it
+  // stays above.
   double min_quality = 0;
-  // With pass_statistics (else zero):
+  // When has_statistics (every pass with pass_statistics, else the first and last):
   std::size_t below_5 = 0, below_10 = 0, below_15 = 0, below_20 = 0;  // min dihedral below (°)
   std::array<std::array<double, 3>, 3> bins_percent{};  // Table I bins, kShewchukMeasures order
   bool has_statistics = false;  // the figures above and the dihedral range were computed
   // What the pass did.
   std::size_t edge_removals = 0, face_flips = 0, boundary_flips = 0;
-  std::size_t odt_moved = 0;                          // interior vertices moved by the ODT sweep
+  std::size_t corner_removals = 0;  // corner tets removed with their corner vertex
+  std::size_t odt_moved = 0;        // interior vertices moved by the ODT sweep
   std::size_t moved_interior = 0, moved_surface = 0;  // … and to raise a bad tet
   std::size_t inserted = 0;                           // interior vertices inserted
   std::size_t vertices = 0;                           // after the pass
@@ -108,12 +114,19 @@ struct OptimizationResult {
   double surface_distance_before_mm = 0, surface_distance_after_mm = 0;
   std::size_t sliding_vertices = 0, fixed_boundary_vertices = 0;
   double fixed_boundary_distance_mm = 0;  // largest distance of a fixed boundary vertex
-  // Boundary flips: the largest height of a tet cut off (how far the boundary moved), and the
-  // largest distance of a new boundary triangle's centroid to the surface.
+  // Boundary flips and corner removals: the largest height of a tet cut off (how far the
+  // boundary moved), and the largest distance of a new boundary triangle's centroid to the
+  // surface.
   double max_boundary_shift_mm = 0;
   double max_flip_face_distance_mm = 0;
   std::size_t boundary_flips = 0;
-  std::size_t inserted_vertices = 0;  // appended after the input's vertices
+  std::size_t corner_removals = 0;    // corner tets (three boundary faces around a vertex with
+                                      // no other tet) removed with that vertex
+  std::size_t inserted_vertices = 0;  // interior vertices inserted
+  // For each vertex of the optimised mesh, the input vertex it is (−1: inserted). Input
+  // vertices keep their order; only corners removed leave gaps. (Filled by optimize_mesh;
+  // MeshOptimizer::mesh gives it too.)
+  std::vector<std::int32_t> vertex_origin;
 };
 
 // Steps the optimisation pass by pass (for the viewer); optimize_mesh runs it to the end.
@@ -136,17 +149,20 @@ class MeshOptimizer {
   int passes() const { return int(result_.history.size()) - 1; }
 
   const std::vector<PassStats>& history() const { return result_.history; }
-  TetMesh mesh() const;  // the current mesh
+  // The current mesh; `origin` (if given) receives, for each of its vertices, the input vertex
+  // it is (−1: inserted).
+  TetMesh mesh(std::vector<std::int32_t>* origin = nullptr) const;
   // The result so far (measures the boundary vertices' distance to the surface now).
   OptimizationResult result() const;
 
  private:
-  PassStats statistics(int pass) const;
+  PassStats statistics(int pass, bool full) const;
 
   OptimizationOptions options_;
   std::unique_ptr<opt::WorkMesh> work_;
   std::unique_ptr<opt::LevelSetSurface> surface_;
   OptimizationResult result_;
+  std::int32_t input_vertices_ = 0;
   bool finished_ = false;
 };
 
@@ -157,9 +173,10 @@ OptimizationResult optimize_mesh(TetMesh& mesh, const Volume<float>* indicator,
 
 // {"wall_s","setup_s","cpu_s","surface_distance_before_mm","surface_distance_after_mm",
 //  "sliding_vertices","fixed_boundary_vertices","fixed_boundary_distance_mm",
-//  "max_boundary_shift_mm","max_flip_face_distance_mm","boundary_flips","inserted_vertices",
+//  "max_boundary_shift_mm","max_flip_face_distance_mm","boundary_flips","corner_removals",
+//  "inserted_vertices",
 //  "passes":[{"pass","wall_s","cpu_s","flips_s","odt_s","smoothing_s","insertion_s","tets","vertices",
-//  "min_quality","edge_removals","face_flips","boundary_flips","odt_moved","moved_interior","moved_surface",
+//  "min_quality","edge_removals","face_flips","boundary_flips","corner_removals","odt_moved","moved_interior","moved_surface",
 //  "inserted", with statistics: "min_dihedral_deg","max_dihedral_deg","below_deg":{"5","10",
 //  "15","20"},"bins_percent":{measure key: [3]}}]}
 nlohmann::json to_json(const OptimizationResult& result);

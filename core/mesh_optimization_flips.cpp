@@ -2,16 +2,17 @@
 // algorithms for the topological improvement of tetrahedral meshes", 2002) and Klingner &
 // Shewchuk ("Aggressive tetrahedral mesh improvement", 2007): edge removal (the ring of tets
 // around an interior edge re-triangulated by dynamic programming; 3-2 and 4-4 flips are its small
-// cases), 2-3 face flips, and the removal of flat tets lying on the boundary (which swaps the
-// diagonal of the boundary quad they fill). A change is made only when the smallest quality of
-// the new tets is higher than that of the tets they replace, so the worst tet never gets worse.
-// New tets are positively oriented and have the same boundary as the ones they replace, so
-// they fill the same region: validity is kept by construction.
+// cases), 2-3 face flips, boundary edge flips (the open fan of a convex boundary edge
+// re-triangulated, which swaps the diagonal of the boundary quad; a flat tet lying on the
+// boundary is simply removed) and corner removals. A change is made only when the smallest
+// quality of the new tets is higher than that of the tets they replace, so the worst tet never
+// gets worse. New tets are positively oriented and have the same boundary as the ones they
+// replace (a boundary flip: less the convex tet it cuts off), so they fill that region: validity
+// is kept by construction. Plans are made in parallel and applied in order, each only while the
+// tets it replaces are unchanged.
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <cstdio>
-#include <cstdlib>
 #include <array>
 #include <cmath>
 #include <limits>
@@ -24,7 +25,7 @@ namespace {
 constexpr double kMinValidQuality = 1e-6;  // new tets must be at least this good (not flat)
 
 struct Plan {
-  enum Kind { none, edge_removal, face_flip, boundary_flip } kind = none;
+  enum Kind { none, edge_removal, face_flip, boundary_flip, corner_removal } kind = none;
   double new_min = -1;                 // smallest quality of the new tets
   std::vector<std::int32_t> old_tets;  // removed
   std::vector<Tet> old_content;        // … as they were when planned
@@ -199,13 +200,52 @@ void plan_face_flip(const WorkMesh& m, std::int32_t t, int f, Plan& best) {
   best.label = m.labels[t];
 }
 
+// Removal of a corner: tet t has three boundary faces around a vertex p that has no other tet
+// (a spike of four surface samples, flat where the surface is). The tet and p go; the fourth
+// face becomes boundary, when it follows the segmentation surface (its centroid within
+// max_face_distance_mm; without the surface: the tet is at most max_boundary_shift_mm high).
+void plan_corner_removal(const WorkMesh& m, std::int32_t t, const TopologyOptions& o, Plan& best) {
+  const Tet& tet = m.tets[t];
+  thread_local std::vector<std::int32_t> sharing;
+  const auto faces = outward_faces(tet);
+  int interior = -1, boundary_faces = 0;
+  for (int f = 0; f < 4; ++f) {
+    m.tets_with(faces[f].data(), 3, sharing);
+    if (sharing.size() == 1)
+      ++boundary_faces;
+    else
+      interior = f;
+  }
+  if (boundary_faces != 3 || interior < 0) return;
+  const std::int32_t p = tet[interior];  // the corner: opposite the interior face
+  if (m.vertex_tets[p].size() != 1) return;
+  const Triangle& base = faces[interior];
+  const Vec3 &x = m.pos[base[0]], &y = m.pos[base[1]], &z = m.pos[base[2]];
+  const double height = tet_height(m.pos[tet[0]], m.pos[tet[1]], m.pos[tet[2]], m.pos[tet[3]]);
+  double distance = 0;
+  if (o.surface) {
+    distance = o.surface->distance((x + y + z) / 3.0);
+    if (distance > o.max_face_distance_mm) return;
+  } else if (height > o.max_boundary_shift_mm) {
+    return;
+  }
+  best.kind = Plan::corner_removal;
+  best.new_min = std::numeric_limits<double>::infinity();
+  best.old_tets = {t};
+  best.new_tets.clear();
+  best.new_quality.clear();
+  best.shift_mm = height;
+  best.face_distance_mm = distance;
+  best.edge[0] = best.edge[1] = -1;
+}
+
 }  // namespace
 
 PassCounts improve_topology(WorkMesh& m, const TopologyOptions& options) {
   PassCounts counts;
   std::vector<std::pair<double, std::int32_t>> bad;
   std::vector<Plan> plans;
-  const std::size_t kChunk = std::getenv("CVT_CHUNK1") ? 1 : 128;  // tets planned together
+  constexpr std::size_t kChunk = 128;  // tets planned together
   for (int round = 0; round < options.max_rounds; ++round) {
     // The bad tets whose neighbourhood changed since they last failed, worst first.
     bad.clear();
@@ -228,6 +268,11 @@ PassCounts improve_topology(WorkMesh& m, const TopologyOptions& options) {
         if (is_dead(m.tets[t]) || m.quality[t] >= options.bad_below) return;
         Plan& plan = plans[k];
         plan.kind = Plan::none;
+        if (options.boundary_flips) plan_corner_removal(m, t, options, plan);
+        if (plan.kind == Plan::corner_removal) {
+          plan.old_content.push_back(m.tets[t]);
+          return;
+        }
         const Tet tet = m.tets[t];
         const auto order = edges_by_extremeness(m, tet);
         for (int r = 0; r < options.edges_tried; ++r)
@@ -254,21 +299,8 @@ PassCounts improve_topology(WorkMesh& m, const TopologyOptions& options) {
                                              : !m.has_edge(plan.edge[0], plan.edge[1]);
         if (!valid) continue;
         for (std::int32_t old : plan.old_tets) m.remove_tet(old);
-        std::vector<std::int32_t> added;
         for (std::size_t i = 0; i < plan.new_tets.size(); ++i)
-          added.push_back(m.add_tet(plan.new_tets[i], plan.label, plan.new_quality[i]));
-        if (std::getenv("CVT_OPT_DEBUG")) {
-          std::vector<std::int32_t> sh;
-          for (std::int32_t nt : added) for (const Triangle& f : outward_faces(m.tets[nt])) {
-            m.tets_with(f.data(), 3, sh);
-            if (sh.size() > 2) {
-              fprintf(stderr, "DEBUG bad plan kind %d old %zu new %zu edge %d %d on_boundary_only %d k %zu first %zu t %d\n", int(plan.kind), plan.old_tets.size(), plan.new_tets.size(), plan.edge[0], plan.edge[1], int(plan.edge_on_boundary_only), k, first, t);
-              for (const Tet& o : plan.old_content) fprintf(stderr, "DEBUG   old %d %d %d %d\n", o[0], o[1], o[2], o[3]);
-              for (const Tet& o : plan.new_tets) fprintf(stderr, "DEBUG   new %d %d %d %d\n", o[0], o[1], o[2], o[3]);
-              for (std::int32_t u : sh) fprintf(stderr, "DEBUG   sharing %d: %d %d %d %d\n", u, m.tets[u][0], m.tets[u][1], m.tets[u][2], m.tets[u][3]);
-            }
-          }
-        }
+          m.add_tet(plan.new_tets[i], plan.label, plan.new_quality[i]);
         ++changes;
         switch (plan.kind) {
           case Plan::edge_removal:
@@ -283,109 +315,18 @@ PassCounts improve_topology(WorkMesh& m, const TopologyOptions& options) {
             counts.max_face_distance_mm =
                 std::max(counts.max_face_distance_mm, plan.face_distance_mm);
             break;
+          case Plan::corner_removal:
+            ++counts.corner_removals;
+            counts.max_boundary_shift_mm = std::max(counts.max_boundary_shift_mm, plan.shift_mm);
+            counts.max_face_distance_mm =
+                std::max(counts.max_face_distance_mm, plan.face_distance_mm);
+            break;
           case Plan::none:
             break;
         }
       }
     }
     if (changes == 0) break;
-  }
-  return counts;
-}
-
-}  // namespace cvt::opt
-
-namespace cvt::opt {
-namespace {
-
-// Whether p lies strictly inside the circumsphere of tet (a, b, c, d) (positively oriented).
-bool in_circumsphere(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, const Vec3& p) {
-  const Vec3 ab = b - a, ac = c - a, ad = d - a;
-  const double vol6 = dot(ab, cross(ac, ad));
-  if (!(vol6 > 0)) return false;
-  const Vec3 rel =
-      (cross(ac, ad) * dot(ab, ab) + cross(ad, ab) * dot(ac, ac) + cross(ab, ac) * dot(ad, ad)) /
-      (2.0 * vol6);
-  const double r2 = dot(rel, rel);
-  return squared_distance(p, a + rel) < r2 * (1 - 1e-9);
-}
-
-}  // namespace
-
-PassCounts delaunay_flips(WorkMesh& m, const std::vector<std::int32_t>& seeds) {
-  PassCounts counts;
-  std::vector<std::int32_t> queue = seeds, sharing, ring, ring_tets;
-  std::vector<char> queued(m.tets.size(), 0);
-  for (std::int32_t t : queue) queued[t] = 1;
-  for (std::size_t head = 0; head < queue.size(); ++head) {
-    const std::int32_t t = queue[head];
-    if (std::size_t(t) < queued.size()) queued[t] = 0;
-    if (is_dead(m.tets[t])) continue;
-    const Tet tet = m.tets[t];
-    for (int f = 0; f < 4; ++f) {
-      const Triangle face = outward_faces(tet)[f];
-      m.tets_with(face.data(), 3, sharing);
-      if (sharing.size() != 2) continue;
-      const std::int32_t other = sharing[0] == t ? sharing[1] : sharing[0];
-      if (m.labels[other] != m.labels[t]) continue;
-      std::int32_t e = -1;
-      for (std::int32_t v : m.tets[other])
-        if (v != face[0] && v != face[1] && v != face[2]) e = v;
-      const Vec3 &p0 = m.pos[tet[0]], &p1 = m.pos[tet[1]], &p2 = m.pos[tet[2]], &p3 = m.pos[tet[3]];
-      if (!in_circumsphere(p0, p1, p2, p3, m.pos[e])) continue;
-      const std::int32_t d = tet[f];
-      const double old_min = std::min(m.quality[t], m.quality[other]);
-      const double floor = std::min(old_min, 1.0);
-      Plan plan;
-      // 2-3 flip when de crosses the face.
-      if (!m.has_edge(d, e)) {
-        const std::array<Tet, 3> nt{Tet{d, e, face[0], face[1]}, Tet{d, e, face[1], face[2]},
-                                    Tet{d, e, face[2], face[0]}};
-        std::array<double, 3> q{};
-        bool ok = true;
-        for (int i = 0; i < 3 && ok; ++i) {
-          q[i] = m.tet_quality(nt[i]);
-          ok = q[i] >= floor && q[i] > kMinValidQuality;
-        }
-        if (ok) {
-          plan.kind = Plan::face_flip;
-          plan.old_tets = {t, other};
-          plan.new_tets.assign(nt.begin(), nt.end());
-          plan.new_quality.assign(q.begin(), q.end());
-        }
-      }
-      // Else a 3-2 flip: an edge of the face with exactly three tets around it.
-      for (int i = 0; i < 3 && plan.kind == Plan::none; ++i) {
-        const std::int32_t a = face[i], b = face[(i + 1) % 3];
-        if (m.edge_ring(a, b, ring, ring_tets) != WorkMesh::Ring::closed || ring.size() != 3)
-          continue;
-        if (m.labels[ring_tets[0]] != m.labels[ring_tets[1]] ||
-            m.labels[ring_tets[0]] != m.labels[ring_tets[2]])
-          continue;
-        const Tet ta{a, ring[0], ring[1], ring[2]}, tb{b, ring[0], ring[2], ring[1]};
-        const double qa = m.tet_quality(ta), qb = m.tet_quality(tb);
-        double ring_min = std::numeric_limits<double>::infinity();
-        for (std::int32_t u : ring_tets) ring_min = std::min(ring_min, m.quality[u]);
-        const double fl = std::min(ring_min, 1.0);
-        if (qa >= fl && qb >= fl && qa > kMinValidQuality && qb > kMinValidQuality) {
-          plan.kind = Plan::edge_removal;
-          plan.old_tets = ring_tets;
-          plan.new_tets = {ta, tb};
-          plan.new_quality = {qa, qb};
-        }
-      }
-      if (plan.kind == Plan::none) continue;
-      const std::int32_t label = m.labels[t];
-      for (std::int32_t old : plan.old_tets) m.remove_tet(old);
-      for (std::size_t i = 0; i < plan.new_tets.size(); ++i) {
-        const std::int32_t slot = m.add_tet(plan.new_tets[i], label, plan.new_quality[i]);
-        if (std::size_t(slot) >= queued.size()) queued.resize(slot + 1, 0);
-        if (!queued[slot]) queued[slot] = 1, queue.push_back(slot);
-      }
-      ++(plan.kind == Plan::face_flip ? counts.face_flips : counts.edge_removals);
-      break;  // t is gone
-    }
-    if (queue.size() > 8 * m.tets.size()) break;  // safety: flips that cycle
   }
   return counts;
 }

@@ -10,7 +10,6 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
-#include <cstdlib>
 #include <cmath>
 #include <limits>
 
@@ -233,7 +232,7 @@ PassCounts insert_vertices(WorkMesh& m, const InsertionOptions& o) {
     // In chunks: planned in parallel on the mesh as it is, applied in order while the cavity
     // is as planned (else planned again in the next round): the result does not depend on the
     // thread count.
-    const std::size_t kChunk = std::getenv("CVT_CHUNK2") ? 1 : 64;
+    constexpr std::size_t kChunk = 64;
     std::size_t inserted = 0;
     for (std::size_t first = 0; first < bad.size(); first += kChunk) {
       const std::size_t count = std::min(kChunk, bad.size() - first);

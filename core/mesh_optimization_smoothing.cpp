@@ -6,8 +6,6 @@
 // where the linearised quality of another tet would catch up, halved until the star's minimum
 // really rises. Boundary vertices move in the tangent plane of the level set and are projected
 // back onto it, so they stay on the segmentation's sub-voxel surface.
-#include <tbb/parallel_for.h>
-
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -19,16 +17,36 @@ namespace cvt::opt {
 namespace {
 
 constexpr double kMinValidQuality = 1e-6;
+constexpr double kPi = 3.14159265358979323846;
 constexpr int kMaxActive = 6;
 constexpr double kActiveBand = 1e-3;  // tets within this of the star's minimum are active
 
-// Quality of star tet `t` with vertex v at x.
-double quality_at(const WorkMesh& m, std::int32_t t, std::int32_t v, const Vec3& x,
-                  double floor = -std::numeric_limits<double>::infinity()) {
-  const Tet& tet = m.tets[t];
-  const Vec3* p[4];
-  for (int i = 0; i < 4; ++i) p[i] = tet[i] == v ? &x : &m.pos[tet[i]];
-  return m.tet_quality(*p[0], *p[1], *p[2], *p[3], floor);
+// Whether the interiors of two tets intersect (separating axis test: face normals and edge
+// cross products; touching along shared vertices, edges or faces is no overlap). `scale2` is a
+// squared length of the neighbourhood, for the tolerance.
+bool tets_overlap(const std::array<Vec3, 4>& a, const std::array<Vec3, 4>& b, double scale2) {
+  static constexpr int kE[6][2] = {{0, 1}, {0, 2}, {0, 3}, {1, 2}, {1, 3}, {2, 3}};
+  static constexpr int kF[4][3] = {{1, 2, 3}, {0, 2, 3}, {0, 1, 3}, {0, 1, 2}};
+  auto separated = [&](const Vec3& axis) {
+    const double len2 = dot(axis, axis);
+    if (!(len2 > 1e-24 * scale2 * scale2)) return false;  // degenerate axis
+    double amin = 1e300, amax = -1e300, bmin = 1e300, bmax = -1e300;
+    for (int i = 0; i < 4; ++i) {
+      const double pa = dot(axis, a[i]), pb = dot(axis, b[i]);
+      amin = std::min(amin, pa), amax = std::max(amax, pa);
+      bmin = std::min(bmin, pb), bmax = std::max(bmax, pb);
+    }
+    const double eps = 1e-9 * std::sqrt(len2 * scale2);
+    return amax <= bmin + eps || bmax <= amin + eps;
+  };
+  for (const auto& f : kF) {
+    if (separated(cross(a[f[1]] - a[f[0]], a[f[2]] - a[f[0]]))) return false;
+    if (separated(cross(b[f[1]] - b[f[0]], b[f[2]] - b[f[0]]))) return false;
+  }
+  for (const auto& ea : kE)
+    for (const auto& eb : kE)
+      if (separated(cross(a[ea[1]] - a[ea[0]], b[eb[1]] - b[eb[0]]))) return false;
+  return true;
 }
 
 // The smallest vector in the convex hull of g[0..n) (Frank–Wolfe with exact line search).
@@ -52,12 +70,6 @@ Vec3 min_norm_in_hull(const Vec3* g, int n) {
   return p;
 }
 
-// A vertex move (the star's qualities at the new position are written apart).
-struct Move {
-  Vec3 position;
-  bool moved = false;
-};
-
 // Best position found for vertex v (its neighbours fixed); when it moves, the star's
 // qualities there go to star_quality (in vertex_tets order).
 Move optimise_vertex(const WorkMesh& m, std::int32_t v, const LevelSetSurface* surface,
@@ -77,6 +89,162 @@ Move optimise_vertex(const WorkMesh& m, std::int32_t v, const LevelSetSurface* s
   const double h = 1e-6 * shortest;
   Vec3 x = m.pos[v];
   bool moved = false;
+  // A boundary vertex's star is not closed: every tet staying positive does not keep it from
+  // sliding over a neighbour's boundary triangles (folding the boundary onto other tets). So
+  // its boundary triangles (the other two vertices, outward order) must keep facing the way
+  // they did: each may turn by less than 60° from where it started.
+  std::vector<std::array<std::int32_t, 2>> boundary_edges;  // (x, y): triangle (v, x, y)
+  std::vector<Vec3> start_normal;
+  if (slide) {
+    std::vector<std::array<std::int32_t, 2>> faces;  // faces through v, sorted pair + order
+    for (std::int32_t t : star)
+      for (const Triangle& f : outward_faces(m.tets[t])) {
+        int at = -1;
+        for (int i = 0; i < 3; ++i)
+          if (f[i] == v) at = i;
+        if (at < 0) continue;
+        faces.push_back({f[(at + 1) % 3], f[(at + 2) % 3]});
+      }
+    for (std::size_t i = 0; i < faces.size(); ++i) {
+      bool shared = false;  // an interior face appears twice, with its two vertices swapped
+      for (std::size_t j = 0; j < faces.size() && !shared; ++j)
+        shared = j != i && faces[j][0] == faces[i][1] && faces[j][1] == faces[i][0];
+      if (!shared) boundary_edges.push_back(faces[i]);
+    }
+    for (const auto& e : boundary_edges)
+      start_normal.push_back(cross(m.pos[e[0]] - x, m.pos[e[1]] - x));
+  }
+  // Tets around the neighbours (not v's), and the vertices they reach: a boundary vertex must
+  // not move into one of those tets, nor its star swallow one of those vertices (link vertices
+  // included: a neighbour can end up inside a star tet it is not a vertex of; a tet's own
+  // vertices are on its boundary, never strictly inside). Gathered when first needed.
+  std::vector<std::int32_t> near_tets, near_vertices;
+  bool gathered = false;
+  auto gather = [&] {
+    gathered = true;
+    // Epoch marks instead of sorting (this runs for every boundary vertex that moves).
+    thread_local std::vector<std::uint32_t> tet_mark, vertex_mark;
+    thread_local std::uint32_t epoch = 0;
+    if (tet_mark.size() < m.tets.size()) tet_mark.resize(m.tets.size() + 1024, 0);
+    if (vertex_mark.size() < m.vertex_count()) vertex_mark.resize(m.vertex_count() + 1024, 0);
+    if (++epoch == 0) {  // wrapped: start afresh
+      std::fill(tet_mark.begin(), tet_mark.end(), 0);
+      std::fill(vertex_mark.begin(), vertex_mark.end(), 0);
+      epoch = 1;
+    }
+    std::vector<std::int32_t> link;
+    vertex_mark[v] = epoch;
+    for (std::int32_t t : star) {
+      tet_mark[t] = epoch;
+      for (std::int32_t w : m.tets[t])
+        if (vertex_mark[w] != epoch) vertex_mark[w] = epoch, link.push_back(w);
+    }
+    near_vertices = link;
+    for (std::int32_t w : link)
+      for (std::int32_t t : m.vertex_tets[w]) {
+        if (tet_mark[t] == epoch) continue;
+        tet_mark[t] = epoch;
+        near_tets.push_back(t);
+        for (std::int32_t u : m.tets[t])
+          if (vertex_mark[u] != epoch) vertex_mark[u] = epoch, near_vertices.push_back(u);
+      }
+  };
+  auto inside = [](const Vec3& p, const Vec3* c[4]) {
+    const Tet order{0, 1, 2, 3};
+    for (const Triangle& f : outward_faces(order)) {
+      const Vec3 &a = *c[f[0]], &b = *c[f[1]], &d = *c[f[2]];
+      if (dot(b - a, cross(d - a, p - a)) >= 0) return false;
+    }
+    return true;
+  };
+  auto stays_embedded = [&](const Vec3& y) {
+    if (!gathered) gather();
+    // Bounding box of the moved star: only vertices in it can be swallowed.
+    Vec3 lo = y, hi = y;
+    for (std::int32_t t : star)
+      for (std::int32_t w : m.tets[t])
+        for (int c = 0; c < 3; ++c)
+          lo[c] = std::min(lo[c], m.pos[w][c]), hi[c] = std::max(hi[c], m.pos[w][c]);
+    auto in_box = [&](const Vec3& p) {
+      return p.x > lo.x && p.x < hi.x && p.y > lo.y && p.y < hi.y && p.z > lo.z && p.z < hi.z;
+    };
+    for (std::int32_t t : near_tets) {
+      const Tet& tet = m.tets[t];
+      const Vec3* c[4] = {&m.pos[tet[0]], &m.pos[tet[1]], &m.pos[tet[2]], &m.pos[tet[3]]};
+      bool outside_box = false;  // y outside the tet's box: not inside it
+      for (int a = 0; a < 3 && !outside_box; ++a)
+        outside_box =
+            (y[a] < (*c[0])[a] && y[a] < (*c[1])[a] && y[a] < (*c[2])[a] && y[a] < (*c[3])[a]) ||
+            (y[a] > (*c[0])[a] && y[a] > (*c[1])[a] && y[a] > (*c[2])[a] && y[a] > (*c[3])[a]);
+      if (!outside_box && inside(y, c)) return false;
+    }
+    for (std::int32_t u : near_vertices) {
+      if (u == v || !in_box(m.pos[u])) continue;
+      for (std::int32_t t : star) {
+        const Tet& tet = m.tets[t];
+        const Vec3* c[4];
+        for (int i = 0; i < 4; ++i) c[i] = tet[i] == v ? &y : &m.pos[tet[i]];
+        if (inside(m.pos[u], c)) return false;
+      }
+    }
+    return true;
+  };
+  // The boundary normal at v (area-weighted, as it started).
+  Vec3 axis{0, 0, 0};
+  for (const Vec3& n : start_normal) axis += n;
+  if (slide) axis = axis / norm(axis);
+  // Whether, seen from y, the star's boundary cycle goes once around the axis, each step
+  // forward: then the star's central projection from y is one-to-one, so (its tets being
+  // positive) the star does not overlap itself.
+  auto projects_one_to_one = [&](const Vec3& y) {
+    double turn = 0;  // azimuth swept around the axis
+    for (std::size_t i = 0; i < boundary_edges.size(); ++i) {
+      const Vec3 a = m.pos[boundary_edges[i][0]] - y, b = m.pos[boundary_edges[i][1]] - y;
+      const Vec3 ap = a - axis * dot(a, axis), bp = b - axis * dot(b, axis);
+      const double step = std::atan2(dot(axis, cross(ap, bp)), dot(ap, bp));
+      if (!(step > 0)) return false;
+      turn += step;
+    }
+    return std::abs(turn - 2 * kPi) < 1e-6;
+  };
+  auto faces_turn_little = [&](const Vec3& y) {  // each boundary triangle by less than 60°
+    for (std::size_t i = 0; i < boundary_edges.size(); ++i) {
+      const Vec3 n = cross(m.pos[boundary_edges[i][0]] - y, m.pos[boundary_edges[i][1]] - y);
+      if (!(dot(n, start_normal[i]) > 0.5 * norm(n) * norm(start_normal[i]))) return false;
+    }
+    return true;
+  };
+  auto star_unfolded = [&](const Vec3& y) {  // no two tets of the star overlap (costly)
+    const std::size_t k = star.size();
+    std::vector<std::array<Vec3, 4>> c(k);
+    std::vector<std::array<Vec3, 2>> box(k);
+    for (std::size_t i = 0; i < k; ++i) {
+      box[i] = {y, y};
+      for (int j = 0; j < 4; ++j) {
+        c[i][j] = m.tets[star[i]][j] == v ? y : m.pos[m.tets[star[i]][j]];
+        for (int a = 0; a < 3; ++a)
+          box[i][0][a] = std::min(box[i][0][a], c[i][j][a]),
+          box[i][1][a] = std::max(box[i][1][a], c[i][j][a]);
+      }
+    }
+    for (std::size_t i = 0; i < k; ++i)
+      for (std::size_t j = i + 1; j < k; ++j) {
+        // Two positive tets sharing a face lie on its two sides; boxes apart cannot overlap.
+        int shared = 0;
+        for (std::int32_t a : m.tets[star[i]])
+          for (std::int32_t b : m.tets[star[j]]) shared += a == b;
+        if (shared == 3) continue;
+        bool apart = false;
+        for (int a = 0; a < 3 && !apart; ++a)
+          apart = box[i][1][a] <= box[j][0][a] || box[j][1][a] <= box[i][0][a];
+        if (!apart && tets_overlap(c[i], c[j], shortest * shortest)) return false;
+      }
+    return true;
+  };
+  std::vector<std::pair<Vec3, std::vector<double>>> steps;  // accepted positions (sliding)
+  // Where the test fails even as the star is (its boundary cycle is not monotone around the
+  // normal: a curved, uneven neighbourhood), the moved star is checked tet against tet.
+  const bool monotone = !slide || projects_one_to_one(x);
   for (int iteration = 0; iteration < o.iterations; ++iteration) {
     const double qmin = *std::min_element(q.begin(), q.end());
     Vec3 normal{0, 0, 0};
@@ -122,7 +290,9 @@ Move optimise_vertex(const WorkMesh& m, std::int32_t v, const LevelSetSurface* s
     bool accepted = false;
     for (int attempt = 0; attempt < 6 && !accepted; ++attempt, alpha *= 0.5) {
       Vec3 y = x + d * alpha;
-      if (slide && !surface->project(y, max_step)) continue;
+      if (slide && (!surface->project(y, max_step) || !faces_turn_little(y) ||
+                    (monotone && !projects_one_to_one(y))))
+        continue;
       double new_min = std::numeric_limits<double>::infinity();
       for (std::size_t i = 0; i < n && new_min > qmin; ++i) {
         trial[i] = quality_at(m, star[i], v, y, qmin);
@@ -132,108 +302,22 @@ Move optimise_vertex(const WorkMesh& m, std::int32_t v, const LevelSetSurface* s
         x = y;
         q.swap(trial);
         accepted = moved = true;
+        if (slide) steps.push_back({x, q});
       }
     }
     if (!accepted) break;
   }
+  if (slide && moved) {
+    // The embedding check is costly: made on the end position, else on earlier ones.
+    while (!steps.empty() &&
+           !((monotone || star_unfolded(steps.back().first)) && stays_embedded(steps.back().first)))
+      steps.pop_back();
+    if (steps.empty()) return {m.pos[v], false};
+    x = steps.back().first;
+    q = steps.back().second;
+  }
   if (moved) std::copy(q.begin(), q.end(), star_quality);
   return {x, moved};
-}
-
-// Greedy colouring in index order of the selected vertices: no two of one class share a tet.
-std::vector<std::vector<std::int32_t>> colour_classes(const WorkMesh& m,
-                                                      const std::vector<char>& selected) {
-  const std::size_t nv = m.vertex_count();
-  std::vector<std::int32_t> colour(nv, -1);
-  std::vector<std::vector<std::int32_t>> classes;
-  std::vector<char> used;
-  for (std::size_t v = 0; v < nv; ++v) {
-    if (!selected[v]) continue;
-    used.assign(classes.size() + 1, 0);
-    for (std::int32_t t : m.vertex_tets[v])
-      for (std::int32_t w : m.tets[t])
-        if (colour[w] >= 0) used[colour[w]] = 1;
-    std::int32_t c = 0;
-    while (used[c]) ++c;
-    colour[v] = c;
-    if (std::size_t(c) == classes.size()) classes.emplace_back();
-    classes[c].push_back(std::int32_t(v));
-  }
-  return classes;
-}
-
-// Runs move(v, star_quality_out) for every vertex of each colour class in parallel (their
-// stars share no tet, so the moves are independent), then applies the moves in order.
-// Returns the vertices moved; with mark_failures, those not moved are marked as failed.
-template <class MoveFn>
-std::vector<std::int32_t> move_in_classes(WorkMesh& m,
-                                          const std::vector<std::vector<std::int32_t>>& classes,
-                                          bool mark_failures, MoveFn&& move) {
-  std::vector<std::int32_t> moved;
-  std::vector<Move> moves;
-  std::vector<std::size_t> offset;
-  std::vector<double> star_quality;
-  for (const auto& cls : classes) {
-    offset.assign(cls.size() + 1, 0);
-    for (std::size_t i = 0; i < cls.size(); ++i)
-      offset[i + 1] = offset[i] + m.vertex_tets[cls[i]].size();
-    star_quality.resize(offset.back());
-    moves.assign(cls.size(), Move{});
-    tbb::parallel_for(std::size_t(0), cls.size(), [&](std::size_t i) {
-      moves[i] = move(cls[i], star_quality.data() + offset[i]);
-    });
-    for (std::size_t i = 0; i < cls.size(); ++i) {
-      const std::int32_t v = cls[i];
-      if (!moves[i].moved) {
-        if (mark_failures) m.move_failed[v] = m.clock;
-        continue;
-      }
-      m.pos[v] = moves[i].position;
-      const auto& star = m.vertex_tets[v];
-      for (std::size_t k = 0; k < star.size(); ++k)
-        m.quality[star[k]] = star_quality[offset[i] + k];
-      m.touch_star(v);
-      moved.push_back(v);
-    }
-  }
-  return moved;
-}
-
-// ODT position of interior vertex v: the volume-weighted mean of its tets' circumcentres
-// (Chen & Xu; Alliez et al. 2005), then the longest step towards it (1, ½, ¼) after which no
-// tet of the star is bad unless it was before, and the star's worst tet is no worse.
-Move odt_move(const WorkMesh& m, std::int32_t v, double* star_quality) {
-  const std::vector<std::int32_t>& star = m.vertex_tets[v];
-  Vec3 sum{0, 0, 0};
-  double volume = 0;
-  double old_min = std::numeric_limits<double>::infinity();
-  for (std::int32_t t : star) {
-    const Tet& tet = m.tets[t];
-    const Vec3 &a = m.pos[tet[0]], &b = m.pos[tet[1]], &c = m.pos[tet[2]], &d = m.pos[tet[3]];
-    const Vec3 ab = b - a, ac = c - a, ad = d - a;
-    const double vol6 = dot(ab, cross(ac, ad));
-    const Vec3 rel =
-        (cross(ac, ad) * dot(ab, ab) + cross(ad, ab) * dot(ac, ac) + cross(ab, ac) * dot(ad, ad)) /
-        (2.0 * vol6);
-    sum += (a + rel) * vol6;
-    volume += vol6;
-    old_min = std::min(old_min, m.quality[t]);
-  }
-  const Vec3 x0 = m.pos[v];
-  if (!(volume > 0)) return {x0, false};
-  const Vec3 target = sum / volume;
-  if (!std::isfinite(target.x + target.y + target.z)) return {x0, false};
-  const double floor = std::max(std::min(old_min, 1.0), kMinValidQuality);
-  for (double w = 1.0; w > 0.2; w *= 0.5) {
-    const Vec3 y = x0 + (target - x0) * w;
-    bool ok = true;
-    for (std::size_t i = 0; i < star.size() && ok; ++i) {
-      star_quality[i] = quality_at(m, star[i], v, y, floor);
-      ok = star_quality[i] > floor;
-    }
-    if (ok) return {y, true};
-  }
-  return {x0, false};
 }
 
 }  // namespace
@@ -252,30 +336,9 @@ PassCounts smooth_vertices(WorkMesh& m, const LevelSetSurface* surface, const Sm
     }
   }
   const auto moved = move_in_classes(
-      m, colour_classes(m, candidate), true,
+      m, colour_classes(m, candidate, true), true,
       [&](std::int32_t v, double* q) { return optimise_vertex(m, v, surface, o, q); });
   for (std::int32_t v : moved) ++(m.on_boundary[v] ? counts.moved_surface : counts.moved_interior);
-  return counts;
-}
-
-PassCounts odt_smooth(WorkMesh& m, int iterations, bool flips) {
-  PassCounts counts;
-  std::vector<char> interior(m.vertex_count(), 0);
-  for (std::size_t v = 0; v < m.vertex_count(); ++v)
-    interior[v] = !m.on_boundary[v] && !m.vertex_tets[v].empty();
-  for (int it = 0; it < iterations; ++it) {
-    const auto classes = colour_classes(m, interior);
-    const auto moved = move_in_classes(
-        m, classes, false, [&](std::int32_t v, double* q) { return odt_move(m, v, q); });
-    counts.moved_interior += moved.size();
-    if (!flips) continue;
-    std::vector<std::int32_t> seeds;
-    for (std::size_t t = 0; t < m.tets.size(); ++t)
-      if (!is_dead(m.tets[t])) seeds.push_back(std::int32_t(t));
-    const PassCounts f = delaunay_flips(m, seeds);
-    counts.face_flips += f.face_flips;
-    counts.edge_removals += f.edge_removals;
-  }
   return counts;
 }
 

@@ -115,14 +115,22 @@ WorkMesh::WorkMesh(const TetMesh& mesh, const QualityScale& quality_scale)
   move_failed.assign(pos.size(), 0);
 }
 
-TetMesh WorkMesh::to_mesh() const {
+TetMesh WorkMesh::to_mesh(std::vector<std::int32_t>* origin) const {
   TetMesh m;
-  m.vertices = pos;
+  std::vector<std::int32_t> index(pos.size(), -1);
+  if (origin) origin->clear();
+  for (std::size_t v = 0; v < pos.size(); ++v) {
+    if (vertex_tets[v].empty()) continue;
+    index[v] = std::int32_t(m.vertices.size());
+    m.vertices.push_back(pos[v]);
+    if (origin) origin->push_back(std::int32_t(v));
+  }
   m.tets.reserve(live_tets());
   bool all_one = true;
   for (std::size_t t = 0; t < tets.size(); ++t) {
     if (is_dead(tets[t])) continue;
-    m.tets.push_back(tets[t]);
+    const Tet& s = tets[t];
+    m.tets.push_back({index[s[0]], index[s[1]], index[s[2]], index[s[3]]});
     m.labels.push_back(labels[t]);
     all_one = all_one && labels[t] == 1;
   }

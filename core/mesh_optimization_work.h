@@ -5,6 +5,7 @@
 
 #include <algorithm>
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <vector>
 
@@ -41,12 +42,14 @@ inline bool is_dead(const Tet& t) {
   return t[0] < 0;
 }
 
-// A tet mesh open to local changes. Vertices never disappear (the input's keep their indices;
-// inserted ones are appended).
+// A tet mesh open to local changes. Vertices keep their slots: inserted ones are appended, and
+// a removed one is left without tets (to_mesh drops it).
 class WorkMesh {
  public:
   WorkMesh(const TetMesh& mesh, const QualityScale& scale);
-  TetMesh to_mesh() const;  // live tets in slot order
+  // Live tets in slot order, vertices without tets dropped; `origin` (if given) receives, for
+  // each output vertex, its slot here (input vertices first, then inserted ones).
+  TetMesh to_mesh(std::vector<std::int32_t>* origin = nullptr) const;
 
   std::size_t vertex_count() const { return pos.size(); }
   std::size_t live_tets() const { return tets.size() - free_slots.size(); }
@@ -138,16 +141,50 @@ class LevelSetSurface {
   float level_;
 };
 
+// Quality of tet t of the star of v, with v at x (see tet_quality for `floor`).
+inline double quality_at(const WorkMesh& m, std::int32_t t, std::int32_t v, const Vec3& x,
+                         double floor = -std::numeric_limits<double>::infinity()) {
+  const Tet& tet = m.tets[t];
+  const Vec3* p[4];
+  for (int i = 0; i < 4; ++i) p[i] = tet[i] == v ? &x : &m.pos[tet[i]];
+  return m.tet_quality(*p[0], *p[1], *p[2], *p[3], floor);
+}
+
+// A vertex move (the star's qualities at the new position are written apart).
+struct Move {
+  Vec3 position;
+  bool moved = false;
+};
+
+// Greedy colouring in index order of the selected vertices: no two of one class share a tet.
+// With two_rings, a selected boundary vertex also shares no tet with a neighbour of another
+// selected vertex of its class: a boundary move changes the shape of the mesh around it, and is
+// checked against the tets and vertices two rings out, which must stay put meanwhile.
+std::vector<std::vector<std::int32_t>> colour_classes(const WorkMesh& mesh,
+                                                      const std::vector<char>& selected,
+                                                      bool two_rings);
+
+// Runs move(v, star_quality_out) for every vertex of each colour class in parallel (their
+// stars share no tet, so the moves are independent), then applies the moves in order; the
+// mover writes the star's qualities (in vertex_tets order) where it is told. Returns the
+// vertices moved; with mark_failures, those not moved are marked as failed.
+std::vector<std::int32_t> move_in_classes(WorkMesh& mesh,
+                                          const std::vector<std::vector<std::int32_t>>& classes,
+                                          bool mark_failures,
+                                          const std::function<Move(std::int32_t, double*)>& move);
+
 // What one topological or smoothing pass did.
 struct PassCounts {
   std::size_t edge_removals = 0;  // interior edge removed, its ring re-triangulated (3-2, 4-4, …)
   std::size_t face_flips = 0;     // 2-3 flips of an interior face
   std::size_t boundary_flips = 0;    // boundary edges removed (boundary diagonal swapped)
+  std::size_t corner_removals = 0;   // corner tets removed with their corner vertex
   std::size_t moved_interior = 0;    // interior vertices moved
   std::size_t moved_surface = 0;     // boundary vertices moved along the surface
   std::size_t inserted = 0;          // interior vertices inserted
-  double max_boundary_shift_mm = 0;  // largest boundary move of a boundary flip (mm)
-  double max_face_distance_mm = 0;   // … of those farther: new faces' distance to the surface
+  double max_boundary_shift_mm = 0;  // largest boundary move of a boundary flip or corner (mm)
+  double max_face_distance_mm = 0;   // … and largest distance of a new boundary face's centroid
+                                     // to the surface (mm)
 };
 
 struct TopologyOptions {
@@ -157,14 +194,15 @@ struct TopologyOptions {
   int edges_tried = 6;         // edges of a bad tet tried for removal, farthest dihedral
                                // angle from a regular tet's first
   bool interior_flips = true;  // edge removal and 2-3 flips inside
-  bool boundary_flips = true;  // remove boundary edges where the boundary is convex …
+  bool boundary_flips = true;  // boundary edge flips where the boundary is convex, and corner
+                               // removals …
   const LevelSetSurface* surface = nullptr;  // … and the new faces follow this surface: within
   double max_face_distance_mm = 0;           // this (mm)
   double max_boundary_shift_mm = 0;  // without a surface: … moving it by at most this (mm)
 };
 
-// Flips (edge removal, 2-3 face flips, boundary edge flips), each applied only when
-// it raises the smallest quality of the tets it replaces; every tet below bad_below is tried,
+// Flips (edge removal, 2-3 face flips, boundary edge flips, corner removals), each applied only
+// when it raises the smallest quality of the tets it replaces; every tet below bad_below is tried,
 // worst first. Planned in parallel, applied in order: deterministic whatever the thread count.
 PassCounts improve_topology(WorkMesh& mesh, const TopologyOptions& options);
 

@@ -177,6 +177,11 @@ void Pipeline::run_stage(Stage s, const Progress& progress) {
         progress("optimisation", 0.0);
         optimization_ = std::make_unique<OptimizationResult>(
             optimize_mesh(mesh_->mesh, &preprocess_->indicator, {}, progress));
+        // Vertices were inserted and removed: map each one back to its sample (−1: inserted).
+        std::vector<int> source(optimization_->vertex_origin.size(), -1);
+        for (std::size_t v = 0; v < source.size(); ++v)
+          if (const int o = optimization_->vertex_origin[v]; o >= 0) source[v] = mesh_->vertex_source[o];
+        mesh_->vertex_source = std::move(source);
       }
       break;
     }

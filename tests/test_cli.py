@@ -108,6 +108,20 @@ class MeshLiver(unittest.TestCase):
             self.assertTrue(a.read() == b.read(), "the saved preset gave a different mesh")
 
 
+class Optimize(unittest.TestCase):
+    def test_optimize_default_removes_slivers_and_stays_valid(self):
+        torus = os.path.join(SOURCE, "assets", "phantom_torus.nii.gz")
+        with tempfile.TemporaryDirectory() as tmp:
+            out, report = os.path.join(tmp, "t.mesh"), os.path.join(tmp, "r.json")
+            r = run("mesh", torus, "-q", "--optimize", "default", "-o", out, "--report", report)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            with open(report) as f:
+                q = json.load(f)["quality"]
+            self.assertTrue(q["validity"]["valid"])
+            self.assertEqual(q["validity"]["euler_characteristic"], 0)  # still a torus
+            self.assertGreaterEqual(q["dihedral_deg"]["min"], 10.0)
+
+
 class BadInput(unittest.TestCase):
     """Each bad input: non-zero exit, exactly one line on stderr naming the file, no crash.
     (`mesh` runs with -q so its progress lines do not count.)"""

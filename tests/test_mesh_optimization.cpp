@@ -79,11 +79,54 @@ void print_stats(const char* name, const OptimizationResult& r) {
   std::printf(
       "%s: %.3f s (setup %.3f s; CPU %.3f s); boundary vertices on the surface: %zu, distance %.2g "
       "-> %.2g mm; "
-      "%zu fixed (up to %.3f mm off); %zu boundary flips, boundary moved up to %.3f mm, new "
-      "faces within %.3f mm of the surface; %zu vertices inserted\n",
+      "%zu fixed (up to %.3f mm off); %zu boundary flips, %zu corners removed, boundary moved up "
+      "to %.3f mm, new faces within %.3f mm of the surface; %zu vertices inserted\n",
       name, r.wall_s, r.setup_s, r.cpu_s, r.sliding_vertices, r.surface_distance_before_mm,
       r.surface_distance_after_mm, r.fixed_boundary_vertices, r.fixed_boundary_distance_mm,
-      r.boundary_flips, r.max_boundary_shift_mm, r.max_flip_face_distance_mm, r.inserted_vertices);
+      r.boundary_flips, r.corner_removals, r.max_boundary_shift_mm, r.max_flip_face_distance_mm,
+      r.inserted_vertices);
+}
+
+// Vertices strictly inside a tet they do not belong to: overlapping tets, which the
+// combinatorial validity check cannot see (a boundary folded over its neighbours).
+std::size_t vertices_inside_foreign_tets(const TetMesh& m) {
+  Vec3 lo{1e30, 1e30, 1e30}, hi{-1e30, -1e30, -1e30};
+  for (const Vec3& p : m.vertices)
+    for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], p[a]), hi[a] = std::max(hi[a], p[a]);
+  const double cell = 3.0;
+  const int nx = int((hi.x - lo.x) / cell) + 1, ny = int((hi.y - lo.y) / cell) + 1,
+            nz = int((hi.z - lo.z) / cell) + 1;
+  std::vector<std::vector<std::int32_t>> grid(std::size_t(nx) * ny * nz);
+  auto idx = [&](int i, int j, int k) { return (std::size_t(k) * ny + j) * nx + i; };
+  for (std::size_t t = 0; t < m.tets.size(); ++t) {
+    Vec3 a{1e30, 1e30, 1e30}, b{-1e30, -1e30, -1e30};
+    for (std::int32_t v : m.tets[t])
+      for (int c = 0; c < 3; ++c)
+        a[c] = std::min(a[c], m.vertices[v][c]), b[c] = std::max(b[c], m.vertices[v][c]);
+    for (int k = int((a.z - lo.z) / cell); k <= int((b.z - lo.z) / cell); ++k)
+      for (int j = int((a.y - lo.y) / cell); j <= int((b.y - lo.y) / cell); ++j)
+        for (int i = int((a.x - lo.x) / cell); i <= int((b.x - lo.x) / cell); ++i)
+          grid[idx(i, j, k)].push_back(std::int32_t(t));
+  }
+  std::size_t inside = 0;
+  for (std::size_t v = 0; v < m.vertices.size(); ++v) {
+    const Vec3& p = m.vertices[v];
+    const auto& cellv =
+        grid[idx(int((p.x - lo.x) / cell), int((p.y - lo.y) / cell), int((p.z - lo.z) / cell))];
+    for (std::int32_t t : cellv) {
+      const Tet& tet = m.tets[t];
+      if (tet[0] == std::int32_t(v) || tet[1] == std::int32_t(v) || tet[2] == std::int32_t(v) ||
+          tet[3] == std::int32_t(v))
+        continue;
+      bool in = true;
+      for (const Triangle& f : outward_faces(tet)) {
+        const Vec3 &x = m.vertices[f[0]], &y = m.vertices[f[1]], &z = m.vertices[f[2]];
+        if (dot(y - x, cross(z - x, p - x)) >= -1e-12) in = false;
+      }
+      inside += in;
+    }
+  }
+  return inside;
 }
 
 // The invariants every optimised mesh must satisfy; returns the final figures.
@@ -100,8 +143,24 @@ QualityReport expect_improved(const TetMesh& before, const TetMesh& after,
   EXPECT_TRUE(va.boundary.closed_manifold);
   EXPECT_EQ(va.boundary.euler_characteristic, vb.boundary.euler_characteristic);
   EXPECT_EQ(va.boundary.components, vb.boundary.components);
-  // Input vertices keep their indices; inserted ones are appended.
-  EXPECT_EQ(after.vertices.size(), before.vertices.size() + r.inserted_vertices);
+  EXPECT_EQ(vertices_inside_foreign_tets(after), vertices_inside_foreign_tets(before));
+  // Input vertices keep their order (removed corners leave gaps), inserted ones come after, and
+  // vertex_origin says which is which.
+  EXPECT_EQ(after.vertices.size(),
+            before.vertices.size() + r.inserted_vertices - r.corner_removals);
+  EXPECT_EQ(r.vertex_origin.size(), after.vertices.size());
+  std::int32_t last = -1;
+  std::size_t inserted = 0;
+  for (std::int32_t o : r.vertex_origin) {
+    if (o < 0) {
+      ++inserted;
+      continue;
+    }
+    EXPECT_EQ(inserted, 0u);  // input vertices first
+    EXPECT_GT(o, last);
+    last = o;
+  }
+  EXPECT_EQ(inserted, r.inserted_vertices);
   // The worst tet gets better, so no tet ends worse than the worst before.
   EXPECT_GT(worst_min_sine(after), worst_min_sine(before));
   EXPECT_GT(qa.dihedral.min_deg, qb.dihedral.min_deg);
@@ -209,6 +268,17 @@ TEST(MeshOptimization, TwoSpheresKeepTwoComponentsAndTheirShape) {
   EXPECT_LE(fa.distance.hausdorff_mm, fb.distance.hausdorff_mm + 0.04);
 }
 
+TEST(MeshOptimization, HollowSphereKeepsItsCavity) {
+  Parameters params;
+  params.fill_cavities = false;
+  const Optimised o =
+      optimise_phantom(hollow_sphere_phantom({1, 0, -1}, 5.0, 10.0), {0.5, 0.55, 0.9}, params);
+  const QualityReport q = expect_improved(o.before, o.after, o.result, 0.5);
+  EXPECT_EQ(q.validity.boundary.euler_characteristic, 4);
+  EXPECT_EQ(q.validity.boundary.components, 2u);
+  EXPECT_GE(q.dihedral.min_deg, 10.0);
+}
+
 TEST(MeshOptimization, WithoutTheSurfaceBoundaryVerticesStayPut) {
   const Phantom p = sphere_phantom({0, 0, 0}, 7.0);
   auto pipe = mesh_phantom(p, {0.6, 0.7, 0.8});
@@ -220,8 +290,11 @@ TEST(MeshOptimization, WithoutTheSurfaceBoundaryVerticesStayPut) {
   std::vector<char> boundary(before.vertices.size(), 0);
   for (const Triangle& f : boundary_triangles(before))
     for (std::int32_t v : f) boundary[v] = 1;
-  for (std::size_t v = 0; v < before.vertices.size(); ++v)
-    if (boundary[v]) EXPECT_TRUE(after.vertices[v] == before.vertices[v]) << v;
+  ASSERT_EQ(r.vertex_origin.size(), after.vertices.size());
+  for (std::size_t v = 0; v < after.vertices.size(); ++v) {
+    const std::int32_t o = r.vertex_origin[v];
+    if (o >= 0 && boundary[o]) EXPECT_TRUE(after.vertices[v] == before.vertices[o]) << v;
+  }
   EXPECT_GT(worst_min_sine(after), worst_min_sine(before));
 }
 
@@ -264,6 +337,7 @@ TEST(MeshOptimization, SteppingPassByPassGivesTheSameMesh) {
     EXPECT_EQ(stepper.passes(), steps);
     EXPECT_EQ(stepper.history().size(), std::size_t(steps) + 1);
     EXPECT_TRUE(check_validity(stepper.mesh()).valid);  // valid after every pass
+    EXPECT_EQ(vertices_inside_foreign_tets(stepper.mesh()), 0u);
   }
   EXPECT_TRUE(stepper.finished());
   EXPECT_FALSE(stepper.step());
@@ -285,9 +359,10 @@ TEST(MeshOptimization, SteppingPassByPassGivesTheSameMesh) {
   EXPECT_EQ(stepper.history().back().tets, stepped.tets.size());
 }
 
-// The liver (issue 7's targets, at the stage-5 mesh's vertex count): no tet below 10°, bad bins
-// below CGAL Mesh_3 with perturb + exude at 57.9k vertices (0.00 / 0.96 / 0.44 %), good bins
-// above the optimised NETGEN column (31.23 / 29.11 / 4.21 %).
+// The liver (issue 7's targets, at the stage-5 mesh's vertex count): no tet below 10° (aim:
+// 15°), bad bins below CGAL Mesh_3 with perturb + exude at 57.5k vertices (bench/compare:
+// 0 / 254 / 2 tets of 300,637, i.e. 0 / 0.084 / 0.00067 %), good bins above the optimised
+// NETGEN column of the paper (31.23 / 29.11 / 4.21 %).
 TEST(MeshOptimization, Liver) {
   const std::string path = CVTMESH_SOURCE_DIR "/data/liver.inr.gz";
   if (!std::filesystem::exists(path)) GTEST_SKIP() << "no " << path;
@@ -295,12 +370,7 @@ TEST(MeshOptimization, Liver) {
   const TetMesh before = pipe->mesh()->mesh;
   const Volume<float>& indicator = pipe->preprocess()->indicator;
   TetMesh after = before;
-  OptimizationOptions options;
-  if (const char* e = std::getenv("CVT_OPT_FACE")) options.max_face_distance_voxels = std::atof(e);
-  if (const char* e = std::getenv("CVT_OPT_PASSES")) options.max_passes = std::atoi(e);
-  if (const char* e = std::getenv("CVT_OPT_GF")) options.global_flip_passes = std::atoi(e);
-  if (const char* e = std::getenv("CVT_OPT_ODTP")) options.odt_passes = std::atoi(e);
-  const OptimizationResult r = optimize_mesh(after, &indicator, options);
+  const OptimizationResult r = optimize_mesh(after, &indicator);
   print_stats("liver", r);
   if (const char* out = std::getenv("CVT_OPT_WRITE")) {  // for inspection
     for (const auto& [m, name] : {std::pair{&before, "_before.vtu"}, {&after, "_after.vtu"}}) {
@@ -312,11 +382,11 @@ TEST(MeshOptimization, Liver) {
     }
   }
   const QualityReport q = expect_improved(before, after, r, min_spacing(indicator));
-  EXPECT_GE(q.dihedral.min_deg, 10.0);
+  EXPECT_GE(q.dihedral.min_deg, 15.0);
   EXPECT_EQ(q.dihedral.below_10, 0u);
-  const std::array<double, 3> cgal_bad{0.005, 0.96, 0.44}, netgen_good{31.23, 29.11, 4.21};
+  const std::array<double, 3> cgal_bad{0.0, 0.084, 0.00067}, netgen_good{31.23, 29.11, 4.21};
   for (int k = 0; k < 3; ++k) {
-    EXPECT_LT(q.shewchuk[k].bins_percent[0], cgal_bad[k]) << k;
+    EXPECT_LE(q.shewchuk[k].bins_percent[0], cgal_bad[k]) << k;
     EXPECT_GT(q.shewchuk[k].bins_percent[2], netgen_good[k]) << k;
   }
   // Fidelity to the segmentation: no worse than a tenth of a voxel on average (sampled every
@@ -353,6 +423,12 @@ TEST(MeshOptimization, RejectsBadInput) {
   TetMesh missing = m;
   missing.tets = {{0, 1, 2, 4}};
   EXPECT_THROW(MeshOptimizer(missing, nullptr), InputError);
+  // No passes: the mesh comes back as it was.
+  OptimizationOptions none;
+  none.max_passes = 0;
+  TetMesh same = m;
+  EXPECT_EQ(optimize_mesh(same, nullptr, none).history.size(), 1u);
+  EXPECT_EQ(same.tets, m.tets);
   // A single regular-ish tet: nothing to do, still valid.
   TetMesh one = m;
   const OptimizationResult r = optimize_mesh(one, nullptr);
@@ -372,20 +448,4 @@ TEST(MeshOptimization, ImageFromEnvironment) {
   const OptimizationResult r = optimize_mesh(after, &pipe->preprocess()->indicator);
   print_stats("image", r);
   expect_improved(before, after, r, min_spacing(pipe->preprocess()->indicator));
-}
-
-TEST(MeshOptimization, DebugLiverPasses) {
-  if (!std::getenv("CVT_OPT_DEBUG")) GTEST_SKIP();
-  const std::string path = CVTMESH_SOURCE_DIR "/data/liver.inr.gz";
-  auto pipe = mesh_image(std::make_shared<Image>(read_image(path)));
-  OptimizationOptions options;
-  options.global_flip_passes = 0;
-  options.odt_passes = 1;
-  MeshOptimizer o(pipe->mesh()->mesh, &pipe->preprocess()->indicator, options);
-  while (o.step()) {
-    const Validity v = check_validity(o.mesh());
-    std::printf("pass %d valid %d shared3 %zu overlapping %zu\n", o.passes(), v.valid,
-                v.faces_shared_by_more_than_two, v.overlapping_faces);
-    if (!v.valid) break;
-  }
 }
