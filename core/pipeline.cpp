@@ -105,7 +105,9 @@ void Pipeline::invalidate_from(Stage s) {
     case Stage::cvt: lloyd_.reset(); [[fallthrough]];
     case Stage::shallow: shallow_.reset(); [[fallthrough]];
     case Stage::mesh:
+      optimizer_.reset();
       mesh_.reset();
+      unoptimized_.reset();
       optimization_.reset();
       [[fallthrough]];
     case Stage::evaluate:
@@ -162,6 +164,10 @@ void Pipeline::run_stage(Stage s, const Progress& progress) {
           lloyd_->sites_world(), lloyd_->owners_of(preprocess_->boundary)));
       break;
     case Stage::mesh: {
+      if (optimizer_) {  // stage 6 stepped part way (viewer): it goes on from where it is
+        optimize_passes(-1, progress);
+        break;
+      }
       const Volume<float>& indicator = preprocess_->indicator;
       auto occupancy = [&indicator](const Vec3& world) {
         const Vec3 idx = indicator.grid.world_to_index(world);
@@ -172,16 +178,10 @@ void Pipeline::run_stage(Stage s, const Progress& progress) {
       mesh_ = std::make_unique<MeshGenerationResult>(
           build_delaunay_mesh(surface_->world, shallow_->kept_world, occupancy,
                               mesh_options(parameters_), progress));
-      // Stage 6 (optional) works in place on the mesh; the viewer cannot step it yet.
+      // Stage 6 (optional) starts from the stage-5 mesh, which is kept for before/after figures.
       if (parameters_.optimize == "default") {
-        progress("optimisation", 0.0);
-        optimization_ = std::make_unique<OptimizationResult>(
-            optimize_mesh(mesh_->mesh, &preprocess_->indicator, {}, progress));
-        // Vertices were inserted and removed: map each one back to its sample (−1: inserted).
-        std::vector<int> source(optimization_->vertex_origin.size(), -1);
-        for (std::size_t v = 0; v < source.size(); ++v)
-          if (const int o = optimization_->vertex_origin[v]; o >= 0) source[v] = mesh_->vertex_source[o];
-        mesh_->vertex_source = std::move(source);
+        start_optimization();
+        optimize_passes(first_passes_, progress);
       }
       break;
     }
@@ -209,6 +209,70 @@ void Pipeline::run_stage(Stage s, const Progress& progress) {
 void Pipeline::run_through(Stage last, const Progress& progress) {
   for (int s = 0; s <= int(last); ++s)
     if (!done_[s]) run_stage(Stage(s), progress);
+}
+
+void Pipeline::start_optimization() {
+  unoptimized_ = std::move(mesh_);
+  mesh_ = std::make_unique<MeshGenerationResult>(*unoptimized_);
+  optimizer_ = std::make_unique<MeshOptimizer>(unoptimized_->mesh, &preprocess_->indicator,
+                                               optimization_options_);
+}
+
+int Pipeline::optimize_passes(int k, const Progress& progress) {
+  progress("optimisation", 0.0);
+  int done = 0;
+  // The mesh follows the optimiser also after a cancel (every phase of a pass keeps it valid).
+  auto adopt = [&] {
+    auto result = std::make_unique<OptimizationResult>(optimizer_->result());
+    mesh_->mesh = optimizer_->mesh(&result->vertex_origin);
+    // Vertices were inserted and removed: map each one back to its sample (−1: inserted).
+    std::vector<int> source(result->vertex_origin.size(), -1);
+    for (std::size_t v = 0; v < source.size(); ++v)
+      if (const int o = result->vertex_origin[v]; o >= 0) source[v] = unoptimized_->vertex_source[o];
+    mesh_->vertex_source = std::move(source);
+    optimization_ = std::move(result);
+    if (optimizer_->finished()) optimizer_.reset();  // frees its working mesh
+  };
+  try {
+    while ((k < 0 || done < k) && optimizer_->step(progress)) ++done;
+  } catch (const Cancelled&) {
+    adopt();
+    throw;
+  }
+  adopt();
+  return done;
+}
+
+void Pipeline::set_optimization_options(const OptimizationOptions& options) {
+  optimization_options_ = options;
+  if (!unoptimized_) return;  // stage 6 has not started
+  optimizer_.reset();
+  optimization_.reset();
+  mesh_ = std::move(unoptimized_);
+  start_optimization();  // again from the kept stage-5 mesh, no pass yet
+  done_[int(Stage::mesh)] = false;
+  invalidate_from(Stage::evaluate);
+}
+
+int Pipeline::step_optimization(int k, const Progress& progress) {
+  if (parameters_.optimize != "default")
+    throw InputError("optimize: stage 6 is off (optimize = none); set it to default to step it");
+  run_through(Stage::shallow, progress);
+  if (done_[int(Stage::mesh)]) return 0;  // finished already
+  invalidate_from(Stage::evaluate);
+  if (!optimizer_) {  // stage 5, and the optimiser set up without running a pass
+    first_passes_ = 0;
+    try {
+      run_stage(Stage::mesh, progress);
+    } catch (...) {
+      first_passes_ = -1;
+      throw;
+    }
+    first_passes_ = -1;
+  }
+  const int done = optimizer_ ? optimize_passes(k, progress) : 0;
+  done_[int(Stage::mesh)] = !optimizer_;
+  return done;
 }
 
 int Pipeline::step_lloyd(int k, const Progress& progress) {

@@ -61,6 +61,16 @@ class Pipeline {
   // iterations (or to convergence with k < 0); later stages become stale. Returns iterations.
   int step_lloyd(int k, const Progress& progress = {});
 
+  // Stage 6 stepping (viewer), with optimize = "default" (else InputError): runs the stages up
+  // to 4 if stale and stage 5 if needed, starts the optimiser on the stage-5 mesh if needed,
+  // then k passes (to the end with k < 0); mesh() follows after every call, evaluation becomes
+  // stale, and the mesh stage is done once the optimiser has finished. Returns passes run.
+  int step_optimization(int k, const Progress& progress = {});
+  // Stage 6 options (the CLI keeps the defaults). Setting them restarts stage 6 from the
+  // stage-5 mesh (the caller sets them only when they changed).
+  void set_optimization_options(const OptimizationOptions& options);
+  const OptimizationOptions& optimization_options() const { return optimization_options_; }
+
   // Results (null / empty until the stage has run).
   const PreprocessResult* preprocess() const { return preprocess_.get(); }
   const SurfaceSamples* surface() const { return surface_.get(); }
@@ -68,6 +78,8 @@ class Pipeline {
   const ShallowResult* shallow() const { return shallow_.get(); }
   const MeshGenerationResult* mesh() const { return mesh_.get(); }
   const OptimizationResult* optimization() const { return optimization_.get(); }  // stage 6
+  // The stage-5 mesh before stage 6 (null unless stage 6 started), for before/after figures.
+  const MeshGenerationResult* unoptimized_mesh() const { return unoptimized_.get(); }
   const QualityReport* quality() const { return quality_.get(); }
   const FidelityReport* fidelity() const { return fidelity_.get(); }
   // Default interior spacing: the area-weighted mean spacing r·lfs of the surface samples.
@@ -79,6 +91,8 @@ class Pipeline {
   void run_stage(Stage s, const Progress& progress);
   void invalidate_from(Stage s);
   void start_lloyd();
+  void start_optimization();                           // mesh_ becomes the kept stage-5 mesh's copy
+  int optimize_passes(int k, const Progress& progress);  // k < 0: to the end
 
   std::shared_ptr<const Image> image_;
   Parameters parameters_;
@@ -89,6 +103,10 @@ class Pipeline {
   std::unique_ptr<ShallowResult> shallow_;
   std::unique_ptr<MeshGenerationResult> mesh_;
   std::unique_ptr<OptimizationResult> optimization_;
+  std::unique_ptr<MeshGenerationResult> unoptimized_;  // stage 5's mesh, once stage 6 started
+  std::unique_ptr<MeshOptimizer> optimizer_;           // while stage 6 is part way
+  OptimizationOptions optimization_options_;
+  int first_passes_ = -1;  // passes the mesh stage runs of stage 6 (step_optimization: 0)
   std::unique_ptr<QualityReport> quality_;
   std::unique_ptr<FidelityReport> fidelity_;
   std::vector<StageRecord> records_;

@@ -80,4 +80,23 @@ std::vector<std::size_t> measure_histogram(const std::vector<double>& values, Me
   return h;
 }
 
+MeshFigures mesh_figures(const std::array<std::vector<double>, 6>& measures) {
+  MeshFigures f;
+  const auto& min_d = measures[int(Measure::MinDihedralDeg)];
+  const auto& max_d = measures[int(Measure::MaxDihedralDeg)];
+  f.tets = min_d.size();
+  if (f.tets == 0) return f;
+  for (int k = 0; k < 3; ++k) {
+    const Measure m = kShewchukMeasures[k];
+    const auto edges = table1_bin_edges(m);
+    std::array<std::size_t, 3> counts{};
+    for (double v : measures[int(m)]) ++counts[table1_bin(v, edges)];
+    for (int b = 0; b < 3; ++b) f.bins_percent[k][b] = 100.0 * double(counts[b]) / double(f.tets);
+  }
+  f.min_dihedral_deg = *std::min_element(min_d.begin(), min_d.end());
+  f.max_dihedral_deg = *std::max_element(max_d.begin(), max_d.end());
+  for (double v : min_d) f.below_10 += v < 10, f.below_20 += v < 20;
+  return f;
+}
+
 }  // namespace cvt::render

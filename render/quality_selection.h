@@ -46,4 +46,15 @@ bool measure_from_key(const std::string& key, Measure& out);
 // QualityReport's histograms when bars = QualityOptions::histogram_bins).
 std::vector<std::size_t> measure_histogram(const std::vector<double>& values, Measure m, int bars);
 
+// Table I bins and dihedral figures from per-tet values of every Measure (in enum order, as
+// MeshLayers and MeshMeasures hold them), binned as core/quality.cpp bins them: the quality
+// panel's before/after columns, also while stage 6 is stepped and no QualityReport is current.
+struct MeshFigures {
+  std::size_t tets = 0;
+  std::array<std::array<double, 3>, 3> bins_percent{};  // kShewchukMeasures order
+  double min_dihedral_deg = 0, max_dihedral_deg = 0;
+  std::size_t below_10 = 0, below_20 = 0;  // tets whose min dihedral angle is below (°)
+};
+MeshFigures mesh_figures(const std::array<std::vector<double>, 6>& measures);
+
 }  // namespace cvt::render

@@ -55,6 +55,14 @@ std::shared_ptr<const MeshLayers> make_mesh_layers(const MeshGenerationResult& r
   return m;
 }
 
+std::shared_ptr<const MeshMeasures> make_mesh_measures(const TetMesh& mesh) {
+  auto m = std::make_shared<MeshMeasures>();
+  m->vertices = mesh.vertices.size();
+  m->tets = mesh.tets.size();
+  for (int k = 0; k < kMeasureCount; ++k) m->measures[k] = tet_measure(mesh, Measure(k));
+  return m;
+}
+
 Stage stage_of_record(const std::string& name) {
   for (int st = 0; st < kStageCount; ++st)
     if (name == stage_name(Stage(st))) return Stage(st);
@@ -96,6 +104,15 @@ std::shared_ptr<const SceneData> SceneDataBuilder::update(const Pipeline& pipeli
     if (now[st] != seen_[st]) ran[st] = true;
     seen_[st] = now[st];
   }
+  const bool mesh_rerun = ran[int(Stage::mesh)];  // stage 5 (and 6) ran again
+  const OptimizationResult* optimization = pipeline.optimization();
+  const std::size_t passes = optimization ? optimization->history.size() : 0;
+  if (optimization != seen_optimization_ || passes != seen_passes_) ran[int(Stage::mesh)] = true;
+  seen_optimization_ = optimization;
+  seen_passes_ = passes;
+  const MeshGenerationResult* unoptimized = pipeline.unoptimized_mesh();
+  const bool unoptimized_changed = unoptimized != seen_unoptimized_ || mesh_rerun;
+  seen_unoptimized_ = unoptimized;
   const bool new_image = !prev || prev->image != image;
 
   s->image = image;
@@ -138,6 +155,13 @@ std::shared_ptr<const SceneData> SceneDataBuilder::update(const Pipeline& pipeli
   const MeshGenerationResult* mesh = pipeline.mesh();
   s->mesh = pick(prev ? prev->mesh : nullptr, mesh != nullptr, ran[int(Stage::mesh)],
                  [&] { return make_mesh_layers(*mesh); });
+  s->optimization_options = pipeline.optimization_options();
+  s->optimization =
+      pick(prev ? prev->optimization : nullptr, optimization != nullptr, ran[int(Stage::mesh)],
+           [&] { return std::make_shared<const OptimizationResult>(*optimization); });
+  s->unoptimized =
+      pick(prev ? prev->unoptimized : nullptr, unoptimized != nullptr, unoptimized_changed,
+           [&] { return make_mesh_measures(unoptimized->mesh); });
   const bool evaluated = ran[int(Stage::evaluate)];
   s->quality = pick(prev ? prev->quality : nullptr, pipeline.quality() != nullptr, evaluated,
                     [&] { return std::make_shared<const QualityReport>(*pipeline.quality()); });

@@ -48,6 +48,12 @@ struct MeshLayers {
   Vec3 lo, hi;                                              // bounding box of the vertices
 };
 
+// Per-tet measures of a mesh that is not drawn (the stage-5 mesh beside the optimised one).
+struct MeshMeasures {
+  std::size_t vertices = 0, tets = 0;
+  std::array<std::vector<double>, kMeasureCount> measures;
+};
+
 struct SceneData {
   std::shared_ptr<const Image> image;                // null before an image is loaded
   std::map<std::int64_t, std::size_t> label_counts;  // integer images: voxels per label
@@ -61,7 +67,12 @@ struct SceneData {
   std::shared_ptr<const std::vector<Vec3>> surface_voxel_samples;  // B at voxel centres (world)
   std::shared_ptr<const LloydState> lloyd;
   std::shared_ptr<const ShallowResult> shallow;
-  std::shared_ptr<const MeshLayers> mesh;
+  std::shared_ptr<const MeshLayers> mesh;  // the optimised mesh once stage 6 ran
+  // Stage 6: its options as applied, its result so far (per-pass history), and the stage-5
+  // mesh's measures (null until stage 6 started), for before/after figures.
+  OptimizationOptions optimization_options;
+  std::shared_ptr<const OptimizationResult> optimization;
+  std::shared_ptr<const MeshMeasures> unoptimized;
   std::shared_ptr<const QualityReport> quality;
   std::shared_ptr<const FidelityReport> fidelity;
 };
@@ -87,11 +98,16 @@ class SceneDataBuilder {
   // Addresses of the pipeline's results at the last snapshot: a new address also means a new
   // result (the records are the main signal; this catches a stage that records nothing).
   std::array<const void*, kStageCount> seen_{};
+  // Stage 6 steps without a record: its result's address and pass count tell a new pass.
+  const void* seen_optimization_ = nullptr;
+  std::size_t seen_passes_ = 0;
+  const void* seen_unoptimized_ = nullptr;
 };
 
 std::shared_ptr<const LloydState> make_lloyd_state(const LloydStepper& stepper);
 std::shared_ptr<const VolumeLayers> make_volume_layers(const PreprocessResult& pre,
                                                        const Grid& image_grid);
 std::shared_ptr<const MeshLayers> make_mesh_layers(const MeshGenerationResult& result);
+std::shared_ptr<const MeshMeasures> make_mesh_measures(const TetMesh& mesh);
 
 }  // namespace cvt::render

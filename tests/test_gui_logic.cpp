@@ -403,3 +403,107 @@ TEST(Session, GreyImagesGetAnIsoValue) {
   EXPECT_FALSE(s.edits_pending());  // the runs used the same default
   ASSERT_NE(s.scene()->surface_samples, nullptr);
 }
+
+TEST(Session, StepsStageSixPassByPassWithBeforeAndAfter) {
+  Session s;
+  s.open_image(torus_file());
+  s.run_through(Stage::shallow);
+  settle(s);
+  ASSERT_EQ(s.edited.optimize, "none");
+  // One pass: stage 5 first, optimisation turned on, the stage-5 measures kept beside.
+  s.step_optimization(1);
+  settle(s);
+  ASSERT_EQ(s.failed_jobs, 0u) << s.first_error;
+  EXPECT_EQ(s.edited.optimize, "default");
+  const render::SceneData* scene = s.scene();
+  ASSERT_NE(scene->mesh, nullptr);
+  ASSERT_NE(scene->unoptimized, nullptr);
+  ASSERT_NE(scene->optimization, nullptr);
+  EXPECT_EQ(scene->optimization->history.size(), 2u);  // before + one pass
+  EXPECT_EQ(scene->quality, nullptr);                  // evaluation stale while stepping
+  const auto after_one = scene->mesh;
+  const auto before = scene->unoptimized;
+  const render::MeshFigures f0 = render::mesh_figures(before->measures);
+  const render::MeshFigures f1 = render::mesh_figures(after_one->measures);
+  // The pass statistics the core computed agree with the panel's figures of both meshes.
+  EXPECT_NEAR(scene->optimization->history[0].min_dihedral_deg, f0.min_dihedral_deg, 1e-9);
+  EXPECT_NEAR(scene->optimization->history[1].min_dihedral_deg, f1.min_dihedral_deg, 1e-9);
+  EXPECT_GE(f1.min_dihedral_deg, f0.min_dihedral_deg);  // the worst tet never gets worse
+  const bool more = s.stage_states()[int(Stage::mesh)] != StageState::done;
+
+  // A second pass: a new mesh is drawn, the stage-5 measures are shared, not rebuilt.
+  if (more) {
+    s.step_optimization(1);
+    settle(s);
+    EXPECT_EQ(s.scene()->optimization->history.size(), 3u);
+    EXPECT_NE(s.scene()->mesh, after_one);
+    EXPECT_EQ(s.scene()->unoptimized, before);
+  }
+  // To the end, then the evaluation: every stage done, the report of the optimised mesh.
+  s.step_optimization(-1);
+  s.run_through(Stage::evaluate);
+  settle(s);
+  ASSERT_EQ(s.failed_jobs, 0u) << s.first_error;
+  for (StageState st : s.stage_states()) EXPECT_EQ(st, StageState::done);
+  ASSERT_NE(s.scene()->quality, nullptr);
+  const render::MeshFigures end = render::mesh_figures(s.scene()->mesh->measures);
+  for (int k = 0; k < 3; ++k)
+    for (int b = 0; b < 3; ++b)
+      EXPECT_NEAR(end.bins_percent[k][b], s.scene()->quality->shewchuk[k].bins_percent[b], 1e-9);
+  EXPECT_NEAR(end.min_dihedral_deg, s.scene()->quality->dihedral.min_deg, 1e-9);
+  EXPECT_TRUE(s.scene()->quality->validity.valid);
+  const int passes = int(s.scene()->optimization->history.size()) - 1;
+
+  // An edited stage 6 option marks the mesh stage pending; re-running starts stage 6 again
+  // from the kept stage-5 mesh (the same before figures) and runs it to the end.
+  s.edited_optimization.max_passes = 1;
+  EXPECT_EQ(s.stage_states()[int(Stage::shallow)], StageState::done);
+  EXPECT_EQ(s.stage_states()[int(Stage::mesh)], StageState::pending);
+  s.rerun_stale();
+  settle(s);
+  ASSERT_EQ(s.failed_jobs, 0u) << s.first_error;
+  EXPECT_EQ(s.scene()->optimization->history.size(), 2u);
+  EXPECT_FALSE(s.edits_pending());
+  const render::MeshFigures again = render::mesh_figures(s.scene()->unoptimized->measures);
+  EXPECT_EQ(again.tets, f0.tets);
+  EXPECT_EQ(again.min_dihedral_deg, f0.min_dihedral_deg);
+  EXPECT_GE(passes, 1);
+
+  // Cancel while passes are queued: the rest are dropped, the mesh drawn is a valid state.
+  s.edited_optimization.max_passes = 10;
+  s.step_optimization(-1);
+  s.cancel();
+  settle(s);
+  EXPECT_FALSE(s.busy());
+  ASSERT_NE(s.scene()->mesh, nullptr);
+  EXPECT_EQ(s.failed_jobs, 0u);
+}
+
+TEST(OptimizationSettings, EveryFieldHasATooltipAndCounts) {
+  const OptimizationOptions defaults = viewer_optimization_options();
+  EXPECT_TRUE(defaults.pass_statistics);
+  for (const OptimizationField& f : optimization_fields()) {
+    EXPECT_FALSE(f.tooltip.empty()) << f.key;
+    EXPECT_EQ((f.real != nullptr) + (f.integer != nullptr) + (f.flag != nullptr), 1) << f.key;
+    // Changing any field makes the options differ (so the panel marks the edit pending).
+    OptimizationOptions o = defaults;
+    if (f.real) o.*f.real += 0.5;
+    if (f.integer) o.*f.integer += 1;
+    if (f.flag) o.*f.flag = !(o.*f.flag);
+    EXPECT_FALSE(same_optimization_options(o, defaults)) << f.key;
+    // Units: angles in degrees, lengths in mm or voxels, counts.
+    if (f.key.find("_deg") != std::string_view::npos)
+      EXPECT_NE(f.tooltip.find("degrees"), std::string_view::npos) << f.key;
+    if (f.key.find("_mm") != std::string_view::npos)
+      EXPECT_NE(f.tooltip.find("mm"), std::string_view::npos) << f.key;
+    if (f.key.find("_voxels") != std::string_view::npos)
+      EXPECT_NE(f.tooltip.find("voxel"), std::string_view::npos) << f.key;
+    if (f.integer) EXPECT_NE(f.tooltip.find("count"), std::string_view::npos) << f.key;
+  }
+  OptimizationOptions wild = defaults;
+  wild.max_passes = -4;
+  wild.target_dihedral_deg = 400;
+  clamp_optimization_options(wild);
+  EXPECT_EQ(wild.max_passes, 0);
+  EXPECT_LE(wild.target_dihedral_deg, 35);
+}

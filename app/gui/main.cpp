@@ -35,6 +35,10 @@ int main(int argc, char** argv) {
                  "Run the stages up to this one: preprocess, surface, cvt, shallow, mesh, "
                  "evaluate")
       ->check(CLI::IsMember({"preprocess", "surface", "cvt", "shallow", "mesh", "evaluate"}));
+  app.add_option("--optimize-passes", o.optimize_passes,
+                 "Step stage 6 this many passes at start, one job each (-1: to the end); turns "
+                 "optimisation on. With --run-all: stages 1-4, the passes, then the rest")
+      ->check(CLI::Range(-1, 100));
   app.add_option("--screenshot", screenshot, "Save a PNG of the views once every job is done");
   app.add_option("--scale", scale, "Screenshot size as a multiple of the window size (1-4)")
       ->check(CLI::Range(1, 4));

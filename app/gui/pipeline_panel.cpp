@@ -1,6 +1,6 @@
 // The pipeline panel: job progress and controls, the stages with their state, every parameter
-// (tooltips from parameter_info), and the Lloyd stepping controls with the energy and
-// displacement plots.
+// (tooltips from parameter_info and optimization_settings), the Lloyd stepping controls with
+// the energy and displacement plots, and stage 6's pass-by-pass controls with its history.
 #include <imgui.h>
 
 #include <algorithm>
@@ -149,6 +149,77 @@ void lloyd_section(UiContext& ctx) {
                    0.0f, FLT_MAX, ImVec2(width, 70));
 }
 
+// Stage 6: its options, stepping pass by pass, and the per-pass history.
+bool optimization_section(UiContext& ctx) {
+  Session& s = ctx.session;
+  Parameters& p = s.edited;
+  bool changed = false;
+  bool optimize = p.optimize != "none";
+  if (ImGui::Checkbox(label_of("optimize").c_str(), &optimize))
+    p.optimize = optimize ? "default" : "none", changed = true;
+  tooltip("optimize");
+  OptimizationOptions& o = s.edited_optimization;
+  for (const OptimizationField& f : optimization_fields()) {
+    const std::string label = std::string(f.label) + "##opt_" + std::string(f.key);
+    if (f.real) {
+      changed |= ImGui::InputDouble(label.c_str(), &(o.*f.real), 0.0, 0.0, "%.4g");
+    } else if (f.integer) {
+      changed |= ImGui::InputInt(label.c_str(), &(o.*f.integer));
+    } else if (f.flag) {
+      changed |= ImGui::Checkbox(label.c_str(), &(o.*f.flag));
+    }
+    if (ImGui::IsItemHovered())
+      ImGui::SetTooltip("%.*s\n(stage 6, part of mesh generation)", int(f.tooltip.size()),
+                        f.tooltip.data());
+  }
+  if (changed) clamp_optimization_options(o);
+  const bool busy = s.busy();
+  const render::SceneData* scene = s.scene();
+  ImGui::BeginDisabled(busy || !scene || !scene->image);
+  if (ImGui::Button("Optimise one pass")) s.step_optimization(1);
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("One pass of stage 6 (runs stages 1-5 first if needed; turns it on)");
+  ImGui::SameLine();
+  if (ImGui::Button("Run to end")) s.step_optimization(-1);
+  if (ImGui::IsItemHovered())
+    ImGui::SetTooltip("The remaining passes, one job each: the views follow every pass");
+  ImGui::EndDisabled();
+  ImGui::SameLine();
+  ImGui::BeginDisabled(!busy);
+  if (ImGui::Button("Cancel##optimisation")) s.cancel();
+  ImGui::EndDisabled();
+  const OptimizationResult* r = scene ? scene->optimization.get() : nullptr;
+  if (!r || r->history.empty()) {
+    ImGui::TextDisabled("no optimisation pass yet");
+    return changed;
+  }
+  const int passes = int(r->history.size()) - 1;
+  const bool finished = scene->parameters.optimize == "default" && !scene->stale[int(Stage::mesh)];
+  ImGui::Text("pass %d of at most %d%s, %.2f s; %zu inserted, %zu corners removed", passes,
+              scene->optimization_options.max_passes, finished ? ", finished" : "", r->wall_s,
+              r->inserted_vertices, r->corner_removals);
+  ImGui::Text("boundary: within %.3g mm of the surface (before %.3g mm)",
+              r->surface_distance_after_mm, r->surface_distance_before_mm);
+  std::vector<float> min_dihedral, bad;
+  for (const PassStats& ps : r->history)
+    if (ps.has_statistics) {
+      min_dihedral.push_back(float(ps.min_dihedral_deg));
+      bad.push_back(float(ps.below_10));
+    }
+  if (min_dihedral.empty()) return changed;
+  const float width = ImGui::GetContentRegionAvail().x;
+  char overlay[80];
+  std::snprintf(overlay, sizeof overlay, "min dihedral %.2f deg (pass 0: %.2f)",
+                min_dihedral.back(), min_dihedral.front());
+  ImGui::PlotLines("##min_dihedral", min_dihedral.data(), int(min_dihedral.size()), 0, overlay,
+                   0.0f, FLT_MAX, ImVec2(width, 60));
+  std::snprintf(overlay, sizeof overlay, "tets below 10 deg: %.0f (pass 0: %.0f)", bad.back(),
+                bad.front());
+  ImGui::PlotLines("##below_10", bad.data(), int(bad.size()), 0, overlay, 0.0f, FLT_MAX,
+                   ImVec2(width, 60));
+  return changed;
+}
+
 }  // namespace
 
 void draw_pipeline_panel(UiContext& ctx) {
@@ -251,11 +322,9 @@ void draw_pipeline_panel(UiContext& ctx) {
     tooltip("seed");
     lloyd_section(ctx);
   }
-  if (ImGui::CollapsingHeader("Other (optimisation, threads, guards)")) {
-    bool optimize = p.optimize != "none";
-    if (ImGui::Checkbox(label_of("optimize").c_str(), &optimize))
-      p.optimize = optimize ? "default" : "none", changed = true;
-    tooltip("optimize");
+  if (stage_header("6 Optimisation (in mesh generation)", states[int(Stage::mesh)]))
+    changed |= optimization_section(ctx);
+  if (ImGui::CollapsingHeader("Other (threads, guards)")) {
     changed |= edit_int("threads", p.threads);
     changed |= edit_int64("max_points", p.max_points);
     changed |= edit_double("max_memory_mb", p.max_memory_mb);

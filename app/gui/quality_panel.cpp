@@ -1,9 +1,16 @@
 // The quality panel: counts, the paper's Table I (three measures × three bins), histograms,
-// dihedral angles, validity and fidelity. Clicking a Table I cell or a histogram bar highlights
-// those tets in the 3D view; clicking it again clears the highlight.
+// dihedral angles, validity and fidelity. Once stage 6 has started, Table I, the histogram and
+// the dihedral figures show the stage-5 mesh (before) beside the current optimised one (after).
+// Table I and the histograms come from the drawn mesh's per-tet measures, so they follow every
+// optimisation pass; validity and fidelity come from the evaluation stage. Clicking a Table I
+// cell or a histogram bar of the drawn mesh highlights those tets in the 3D view; clicking it
+// again clears the highlight.
 #include <imgui.h>
 
+#include <algorithm>
 #include <cstdio>
+#include <memory>
+#include <optional>
 #include <vector>
 
 #include "quality_selection.h"
@@ -34,7 +41,20 @@ void toggle_highlight(ViewSettings& view, const render::TetSelection& selection)
   view.highlight = view.highlight == selection ? render::TetSelection{} : selection;
 }
 
-void table_one(UiContext& ctx, const QualityReport& q) {
+// Figures of the drawn mesh and of the stage-5 mesh, recomputed only when a new one arrives.
+struct FiguresCache {
+  std::shared_ptr<const void> key;
+  render::MeshFigures figures;
+  const render::MeshFigures& get(const std::shared_ptr<const void>& part,
+                                 const std::array<std::vector<double>, 6>& measures) {
+    if (part != key) key = part, figures = render::mesh_figures(measures);
+    return figures;
+  }
+};
+
+// Table I of the drawn mesh (clickable); with `before`, a row of the stage-5 mesh above each.
+void table_one(UiContext& ctx, const render::MeshFigures& after,
+               const render::MeshFigures* before) {
   if (!ImGui::BeginTable("table1", 4, ImGuiTableFlags_Borders | ImGuiTableFlags_SizingStretchProp))
     return;
   ImGui::TableSetupColumn("measure");
@@ -45,9 +65,18 @@ void table_one(UiContext& ctx, const QualityReport& q) {
   for (int i = 0; i < 3; ++i) {
     const Measure m = kShewchukMeasures[i];
     const auto edges = table1_bin_edges(m);
+    if (before) {
+      ImGui::TableNextRow();
+      ImGui::TableNextColumn();
+      ImGui::TextDisabled("%s, before", measure_title(m));
+      for (int b = 0; b < 3; ++b) {
+        ImGui::TableNextColumn();
+        ImGui::TextDisabled("%.2f", before->bins_percent[i][b]);
+      }
+    }
     ImGui::TableNextRow();
     ImGui::TableNextColumn();
-    ImGui::Text("%s", measure_title(m));
+    ImGui::TextUnformatted(before ? "  after" : measure_title(m));
     for (int b = 0; b < 3; ++b) {
       ImGui::TableNextColumn();
       render::TetSelection sel;
@@ -55,7 +84,7 @@ void table_one(UiContext& ctx, const QualityReport& q) {
       sel.measure = m;
       sel.index = b;
       char text[48];
-      std::snprintf(text, sizeof text, "%.2f##%d%d", q.shewchuk[i].bins_percent[b], i, b);
+      std::snprintf(text, sizeof text, "%.2f##%d%d", after.bins_percent[i][b], i, b);
       if (ImGui::Selectable(text, ctx.view.highlight == sel)) toggle_highlight(ctx.view, sel);
       if (ImGui::IsItemHovered())
         ImGui::SetTooltip("%s %s %.3g%s  (click: highlight these tets)", measure_title(m),
@@ -69,18 +98,33 @@ void table_one(UiContext& ctx, const QualityReport& q) {
   ImGui::EndTable();
 }
 
-// A clickable histogram of one per-tet measure.
-void histogram(UiContext& ctx, const render::MeshLayers& mesh, Measure m) {
+// A clickable histogram of one per-tet measure of the drawn mesh; with `before` (the stage-5
+// mesh's values), its histogram first, on the same scale, not clickable (it is not drawn).
+void histogram(UiContext& ctx, const render::MeshLayers& mesh, Measure m,
+               const std::vector<double>* before) {
   const int bars = 20;
   const auto counts = render::measure_histogram(mesh.measures[int(m)], m, bars);
   std::vector<float> values(counts.begin(), counts.end());
   const render::MeasureScale scale = render::measure_scale(m);
   char overlay[96];
-  std::snprintf(overlay, sizeof overlay, "%s over [%.3g, %.3g]", measure_title(m), scale.lo,
-                scale.hi);
   const float width = ImGui::GetContentRegionAvail().x;
-  ImGui::PlotHistogram("##histogram", values.data(), bars, 0, overlay, 0.0f, FLT_MAX,
-                       ImVec2(width, 90));
+  float top = *std::max_element(values.begin(), values.end());
+  if (before) {
+    const auto b = render::measure_histogram(*before, m, bars);
+    std::vector<float> bv(b.begin(), b.end());
+    top = std::max(top, *std::max_element(bv.begin(), bv.end()));
+    std::snprintf(overlay, sizeof overlay, "before: %s over [%.3g, %.3g]", measure_title(m),
+                  scale.lo, scale.hi);
+    ImGui::PushStyleColor(ImGuiCol_PlotHistogram, ImVec4(0.55f, 0.55f, 0.6f, 1.0f));
+    ImGui::PlotHistogram("##histogram_before", bv.data(), bars, 0, overlay, 0.0f, top,
+                         ImVec2(width, 70));
+    ImGui::PopStyleColor();
+    if (ImGui::IsItemHovered()) ImGui::SetTooltip("the stage-5 mesh, before optimisation");
+  }
+  std::snprintf(overlay, sizeof overlay, "%s%s over [%.3g, %.3g]", before ? "after: " : "",
+                measure_title(m), scale.lo, scale.hi);
+  ImGui::PlotHistogram("##histogram", values.data(), bars, 0, overlay, 0.0f,
+                       before ? top : FLT_MAX, ImVec2(width, before ? 70 : 90));
   const ImVec2 lo = ImGui::GetItemRectMin(), hi = ImGui::GetItemRectMax();
   const float pad = ImGui::GetStyle().FramePadding.x;
   const float x = ImGui::GetIO().MousePos.x;
@@ -125,15 +169,25 @@ void draw_quality_panel(UiContext& ctx) {
                   scene->mesh->mesh.vertices.size(), scene->mesh->mesh.tets.size(),
                   scene->mesh->exterior_poles.size());
   }
-  const QualityReport* q = scene ? scene->quality.get() : nullptr;
-  if (!q) {
-    ImGui::TextDisabled("no quality report yet (run the evaluation stage)");
+  if (!scene || !scene->mesh) {
+    ImGui::TextDisabled("no mesh yet (run mesh generation)");
     ImGui::End();
     return;
   }
+  static FiguresCache after_cache, before_cache;
+  const render::MeshFigures& after = after_cache.get(scene->mesh, scene->mesh->measures);
+  const render::MeshFigures* before =
+      scene->unoptimized ? &before_cache.get(scene->unoptimized, scene->unoptimized->measures)
+                         : nullptr;
   ImGui::Separator();
-  ImGui::Text("Table I (%% of %zu tets)", q->tets);
-  table_one(ctx, *q);
+  if (before) {
+    const int passes = scene->optimization ? int(scene->optimization->history.size()) - 1 : 0;
+    ImGui::Text("Table I %%: %zu tets before, %zu after %d pass%s", before->tets, after.tets,
+                passes, passes == 1 ? "" : "es");
+  } else {
+    ImGui::Text("Table I (%% of %zu tets)", after.tets);
+  }
+  table_one(ctx, after, before);
   if (ctx.view.highlight.kind != render::TetSelection::Kind::none) {
     ImGui::Text("highlighted: %zu kept tets, %s", ctx.renderer.highlighted_tets,
                 render::describe(ctx.view.highlight).c_str());
@@ -145,12 +199,29 @@ void draw_quality_panel(UiContext& ctx) {
                          "min dihedral", "max dihedral",   "radius-edge"};
   ImGui::SetNextItemWidth(180);
   ImGui::Combo("histogram", &measure, names, 6);
-  if (scene->mesh) histogram(ctx, *scene->mesh, Measure(measure));
+  histogram(ctx, *scene->mesh, Measure(measure),
+            before ? &scene->unoptimized->measures[measure] : nullptr);
 
+  if (before) {
+    ImGui::Text("dihedral angles: min %.2f -> %.2f deg, max %.2f -> %.2f deg",
+                before->min_dihedral_deg, after.min_dihedral_deg, before->max_dihedral_deg,
+                after.max_dihedral_deg);
+    ImGui::Text("tets with min dihedral < 10 / 20 deg: %zu / %zu -> %zu / %zu", before->below_10,
+                before->below_20, after.below_10, after.below_20);
+  } else {
+    ImGui::Text("dihedral angles: min %.2f deg, max %.2f deg", after.min_dihedral_deg,
+                after.max_dihedral_deg);
+    ImGui::Text("tets with min dihedral < 10 / 20 deg: %zu / %zu", after.below_10,
+                after.below_20);
+  }
+  const QualityReport* q = scene->quality.get();
+  if (!q) {
+    ImGui::Separator();
+    ImGui::TextDisabled("validity and fidelity: run the evaluation stage");
+    ImGui::End();
+    return;
+  }
   const DihedralStats& d = q->dihedral;
-  ImGui::Text("dihedral angles: min %.2f deg, max %.2f deg", d.min_deg, d.max_deg);
-  ImGui::Text("tets with min dihedral < 5/10/20 deg: %zu / %zu / %zu", d.below_5, d.below_10,
-              d.below_20);
   ImGui::Text("tets with max dihedral > 160/170 deg: %zu / %zu", d.above_160, d.above_170);
   ImGui::Separator();
   const Validity& v = q->validity;

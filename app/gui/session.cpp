@@ -39,12 +39,21 @@ Parameters with_default_iso(Parameters p, const Image* image) {
 
 }  // namespace
 
-void Session::submit_stage(Stage s) {
-  const Parameters parameters = edited;
-  worker_.submit(stage_name(s), [parameters, s](JobContext& ctx) {
+std::function<void(JobContext&)> Session::applying(std::function<void(JobContext&)> then) const {
+  return [parameters = edited, optimization = edited_optimization,
+          then = std::move(then)](JobContext& ctx) {
     ctx.pipeline.set_parameters(with_default_iso(parameters, ctx.image.get()));
-    ctx.pipeline.run_through(s, ctx.progress);
-  });
+    // Setting stage 6's options restarts it: only when they changed.
+    if (!same_optimization_options(ctx.pipeline.optimization_options(), optimization))
+      ctx.pipeline.set_optimization_options(optimization);
+    then(ctx);
+  };
+}
+
+void Session::submit_stage(Stage s) {
+  worker_.submit(stage_name(s), applying([s](JobContext& ctx) {
+                   ctx.pipeline.run_through(s, ctx.progress);
+                 }));
 }
 
 void Session::run_through(Stage last) {
@@ -79,13 +88,24 @@ void Session::run_next_stage() {
 
 void Session::step_lloyd(int iterations) {
   target_ = std::max(target_, Stage::cvt);
-  const Parameters parameters = edited;
   const std::string name =
       iterations < 0 ? "Lloyd to convergence" : "Lloyd ×" + std::to_string(iterations);
-  worker_.submit(name, [parameters, iterations](JobContext& ctx) {
-    ctx.pipeline.set_parameters(with_default_iso(parameters, ctx.image.get()));
-    ctx.pipeline.step_lloyd(iterations, ctx.progress);
-  });
+  worker_.submit(name, applying([iterations](JobContext& ctx) {
+                   ctx.pipeline.step_lloyd(iterations, ctx.progress);
+                 }));
+}
+
+void Session::step_optimization(int passes) {
+  target_ = std::max(target_, Stage::mesh);
+  if (edited.optimize != "default") {
+    edited.optimize = "default";
+    message(false, "optimisation turned on (optimize = default)");
+  }
+  const int jobs = passes < 0 ? std::max(edited_optimization.max_passes, 1) : passes;
+  for (int i = 0; i < jobs; ++i)
+    worker_.submit("optimisation pass", applying([](JobContext& ctx) {
+                     ctx.pipeline.step_optimization(1, ctx.progress);
+                   }));
 }
 
 void Session::cancel() {
@@ -138,7 +158,7 @@ std::shared_ptr<const render::LloydState> Session::lloyd() const {
 }
 
 std::array<StageState, kStageCount> Session::stage_states() const {
-  return cvt::gui::stage_states(scene_.get(), edited);
+  return cvt::gui::stage_states(scene_.get(), edited, &edited_optimization);
 }
 
 bool Session::poll(double now_s) {

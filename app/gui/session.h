@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "optimization_settings.h"
 #include "pipeline_worker.h"
 #include "recent_files.h"
 #include "view_settings.h"
@@ -37,6 +38,10 @@ class Session {
   void rerun_stale();               // the non-done stages up to the furthest asked for
   void run_next_stage();            // the first non-done stage
   void step_lloyd(int iterations);  // < 0: to convergence
+  // Stage 6 pass by pass, one job per pass so the views follow each one: `passes` jobs (< 0:
+  // as many as edited_optimization.max_passes; those after the last useful pass do nothing).
+  // Turns optimisation on (edited.optimize = "default"): stepping it means using it.
+  void step_optimization(int passes);
   void cancel();
   void export_mesh(const std::string& path);
   // Presets are read and written on the UI thread (small files); errors become messages.
@@ -54,12 +59,15 @@ class Session {
   // The newest Lloyd state: a live one posted during a job, else the snapshot's.
   std::shared_ptr<const render::LloydState> lloyd() const;
   std::array<StageState, kStageCount> stage_states() const;
-  bool edits_pending() const { return first_edited_stage(scene_.get(), edited) != Stage::count; }
+  bool edits_pending() const {
+    return first_edited_stage(scene_.get(), edited, &edited_optimization) != Stage::count;
+  }
   WorkerStatus worker_status() const { return worker_.status(); }
   bool busy() const { return worker_.busy(); }
   void wait_idle() { worker_.wait_idle(); }
 
   Parameters edited;  // what the pipeline panel shows and edits
+  OptimizationOptions edited_optimization = viewer_optimization_options();  // stage 6's
   bool auto_rerun = false;
   std::vector<Message> messages;  // newest last
   std::size_t failed_jobs = 0;
@@ -76,6 +84,8 @@ class Session {
 
  private:
   void submit_stage(Stage s);
+  // The job's first step: the edited parameters and stage 6 options, applied to the pipeline.
+  std::function<void(JobContext&)> applying(std::function<void(JobContext&)> then) const;
   void message(bool error, std::string text);
 
   PipelineWorker worker_;

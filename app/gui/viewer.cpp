@@ -86,6 +86,19 @@ class MouseControl {
   int target_ = 0;  // the view a drag started in: 0 none, 1 3D, 2 slice
 };
 
+// The runs a scripted start asks for (see ViewerOptions).
+void start_runs(Session& session, const ViewerOptions& options) {
+  if (options.optimize_passes != 0) {
+    if (options.run_all || options.run_through) session.run_through(Stage::shallow);
+    session.step_optimization(options.optimize_passes);
+    if (options.run_all) session.run_all();
+  } else if (options.run_all) {
+    session.run_all();
+  } else if (options.run_through) {
+    session.run_through(*options.run_through);
+  }
+}
+
 struct GlfwScope {
   GlfwScope() : ok(glfwInit() == GLFW_TRUE) {}
   ~GlfwScope() {
@@ -165,10 +178,7 @@ int run_viewer(const ViewerOptions& options) {
       exit_code = 1;
     }
     if (!options.image.empty()) session.open_image(options.image);
-    if (options.run_all && !options.image.empty())
-      session.run_all();
-    else if (options.run_through && !options.image.empty())
-      session.run_through(*options.run_through);
+    if (!options.image.empty()) start_runs(session, options);
 
     for (const std::string& name : options.show_windows) show_window(ui, name);
     std::optional<ScreenshotRequest> scripted_shot = options.screenshot;

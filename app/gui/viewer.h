@@ -17,6 +17,9 @@ struct ViewerOptions {
   std::string preset;                           // loaded at start
   bool run_all = false;                         // run every stage at start
   std::optional<Stage> run_through;             // or the stages up to this one
+  // Stage 6 passes stepped at start, one job each (< 0: to the end; 0: none). With run_all:
+  // stages 1-4 first, then the passes, then what is left (the rest of stage 6, evaluation).
+  int optimize_passes = 0;
   std::optional<ScreenshotRequest> screenshot;  // taken once every job is done
   bool exit_when_done = false;                  // quit after the jobs (and screenshot)
   int benchmark_frames = 0;                     // time this many frames once done, print stats
