@@ -15,6 +15,7 @@
 #include <limits>
 #include <nlohmann/json.hpp>
 
+#include "errors.h"
 #include "quality.h"
 
 namespace cvt {
@@ -190,6 +191,16 @@ FidelityReport compute_fidelity(const TetMesh& mesh, const Mask& object,
   sd.max_samples = options.max_samples;
   rep.distance = surface_distance(boundary_surface(mesh), reference, sd);
   return rep;
+}
+
+Mask fidelity_object(const Image& image, const ObjectSelection& selection,
+                     const CleanupOptions& cleanup) {
+  Mask object = select_object(image, selection);
+  clean_object(object, cleanup);
+  if (std::find(object.data.begin(), object.data.end(), 1) == object.data.end())
+    throw InputError(image.source + ": nothing is left of " + describe(selection) +
+                     " after clean-up");
+  return object;
 }
 
 nlohmann::json to_json(const FidelityReport& r) {

@@ -5,7 +5,10 @@
 #include <cstddef>
 #include <nlohmann/json_fwd.hpp>
 
+#include "cleanup.h"
+#include "image.h"
 #include "marching_cubes.h"
+#include "object_selection.h"
 #include "tet_mesh.h"
 #include "volume.h"
 
@@ -56,6 +59,14 @@ struct FidelityReport {
 // Fidelity of `mesh` (world, mm) to `object` (non-zero voxels; world positions from its grid).
 FidelityReport compute_fidelity(const TetMesh& mesh, const Mask& object,
                                 const FidelityOptions& options = {});
+
+// The object a mesh of `image` is judged against: the selection after stage 1's clean-up
+// (cavities filled, specks dropped), exactly as the pipeline builds it, so `cvtmesh quality
+// --image` and a run report agree. Judging against the raw selection would count enclosed
+// background voxels, which every mesher fills, as missed boundary. Throws InputError naming the
+// image when nothing is left.
+Mask fidelity_object(const Image& image, const ObjectSelection& selection,
+                     const CleanupOptions& cleanup);
 
 // {"mesh_volume_mm3","object_volume_mm3","volume_error_percent","hausdorff_mm","mean_mm",
 //  "p95_mm","mesh_to_object":{"max_mm","mean_mm"},"object_to_mesh":{...},"sample_spacing_mm",

@@ -122,6 +122,39 @@ class Optimize(unittest.TestCase):
             self.assertGreaterEqual(q["dihedral_deg"]["min"], 10.0)
 
 
+class QualityFidelity(unittest.TestCase):
+    def test_quality_image_agrees_with_the_run_report(self):
+        # A ball with an enclosed cavity and a far speck, so the clean-up (fill cavities, drop
+        # small components) changes the object: `quality --image` must judge against the same
+        # cleaned object as the run's own evaluation, with the default clean-up and without it.
+        n = 40
+        voxels = bytearray(n ** 3)
+        for z in range(n):
+            for y in range(n):
+                for x in range(n):
+                    r2 = (x - 22) ** 2 + (y - 22) ** 2 + (z - 22) ** 2
+                    speck = max(x, y, z) <= 3 and min(x, y, z) >= 2
+                    voxels[x + n * (y + n * z)] = 1 if 9 < r2 <= 144 or speck else 0
+        with tempfile.TemporaryDirectory() as tmp:
+            image = os.path.join(tmp, "ball.nrrd")
+            with open(image, "wb") as f:
+                f.write(b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 40 40 40\n"
+                        b"spacings: 1 1 1\nencoding: raw\n\n" + bytes(voxels))
+            for cleanup in ([], ["--fill-cavities", "false", "--remove-small-components", "false"]):
+                mesh, report = os.path.join(tmp, "ball.mesh"), os.path.join(tmp, "r.json")
+                r = run("mesh", image, "-q", "-o", mesh, "--report", report, *cleanup)
+                self.assertEqual(r.returncode, 0, r.stderr)
+                with open(report) as f:
+                    want = json.load(f)["fidelity"]
+                r = run("quality", mesh, "--image", image, "--json", *cleanup)
+                self.assertEqual(r.returncode, 0, r.stderr)
+                got = json.loads(r.stdout)["fidelity"]
+                for key in ["object_volume_mm3", "volume_error_percent", "hausdorff_mm",
+                            "mean_mm", "p95_mm"]:
+                    self.assertAlmostEqual(got[key], want[key], delta=1e-6 * max(1, abs(want[key])),
+                                           msg=f"{key} with clean-up {cleanup or 'default'}")
+
+
 class BadInput(unittest.TestCase):
     """Each bad input: non-zero exit, exactly one line on stderr naming the file, no crash.
     (`mesh` runs with -q so its progress lines do not count.)"""
