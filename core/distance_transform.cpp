@@ -22,6 +22,10 @@
 
 #include "errors.h"
 
+#ifdef __linux__
+#include <sys/mman.h>
+#endif
+
 namespace cvt {
 namespace {
 
@@ -30,72 +34,118 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 // (TLB) miss of each strided k row, while a 32 × 1000 tile of values + indices stays in L2.
 constexpr int kTileWidth = 32;
 
+// Position of the lowest non-zero byte of a little-endian word (w ≠ 0).
+int next_set_byte(std::uint64_t w) {
+  return __builtin_ctzll(w) / 8;
+}
+
 // Per-thread work memory, sized once for the longest axis so no line allocates.
 struct Scratch {
-  std::vector<int> left;                 // pass i: last feature at or before each i
   std::vector<float> tile_value;         // a tile of lines, row-major (kTileWidth per row)
   std::vector<std::int32_t> tile_index;  // the matching feature indices
-  // The lower envelope of one line: apex sample q, apex value f (mm²), f + w·q² (the form the
-  // intersection test uses) and feature index of each parabola.
-  std::vector<double> site;
-  std::vector<double> site_f, site_F;
+  // The lower envelope of one line, parabola by parabola: apex sample q, apex value f (mm²),
+  // F = f + w·q², feature index, and where the parabola takes over from the one below it on the
+  // stack, as a fraction: at (F_k − F_{k−1}) / (2w·(q_k − q_{k−1})).
+  std::vector<double> site, site_f, site_F, rise, run;
   std::vector<std::int32_t> site_index;
   std::vector<int> ends_at;  // fill: how many intervals end just before each sample
 
   explicit Scratch(const std::array<int, 3>& dims) {
     const int longest = std::max({dims[0], dims[1], dims[2]});
-    left.resize(dims[0]);
     tile_value.resize(std::size_t(kTileWidth) * std::max(dims[1], dims[2]));
     tile_index.resize(tile_value.size());
-    site.resize(longest);
-    site_f.resize(longest);
-    site_F.resize(longest);
+    for (auto* v : {&site, &site_f, &site_F, &rise, &run}) v->resize(longest);
     site_index.resize(longest);
     ends_at.resize(longest + 1);
   }
 };
 
+// First i in [i, n) with a non-zero (feature) mask byte, or n; eight bytes at a time.
+int next_feature(const unsigned char* mask, int i, int n) {
+  for (; i + 8 <= n; i += 8) {
+    std::uint64_t w;
+    std::memcpy(&w, mask + i, 8);
+    if (w) return i + next_set_byte(w);
+  }
+  while (i < n && !mask[i]) ++i;
+  return i;
+}
+
+// First i in [i, n) with a zero mask byte, or n.
+int next_non_feature(const unsigned char* mask, int i, int n) {
+  constexpr std::uint64_t kOnes = 0x0101010101010101ull, kHighs = 0x8080808080808080ull;
+  for (; i + 8 <= n; i += 8) {
+    std::uint64_t w;
+    std::memcpy(&w, mask + i, 8);
+    // The lowest flagged byte is the lowest zero byte (higher flags may be false positives).
+    const std::uint64_t zero_bytes = (w - kOnes) & ~w & kHighs;
+    if (zero_bytes) return i + next_set_byte(zero_bytes);
+  }
+  while (i < n && mask[i]) ++i;
+  return i;
+}
+
+// Samples [from, to) of a row all take the feature at `feature`: squared distance
+// squared_step[|i − feature|]. Plain loops over contiguous memory, so they vectorise.
+template <bool kNearest>
+void fill_gap(float* value, std::int32_t* index, int from, int to, int feature,
+              std::int32_t row_start, const float* squared_step) {
+  if (feature < from)
+    for (int i = from; i < to; ++i) value[i] = squared_step[i - feature];
+  else
+    for (int i = from; i < to; ++i) value[i] = squared_step[feature - i];
+  if constexpr (kNearest) std::fill(index + from, index + to, row_start + feature);
+}
+
 // Pass i on one row: squared distance to, and linear index of, the nearest feature in the row.
 // squared_step[d] = float(w·d²), w the squared spacing. Equidistant features: the lower i wins.
-// A missing feature on one side sits kFar away, so both scans are simple selects.
+// The row is walked run by run (features, then the gap to the next feature), so the per-voxel
+// work is a vectorised fill.
 template <bool kNearest>
 void scan_row(const unsigned char* mask, float* value, std::int32_t* index, int n,
-              std::int32_t row_start, const float* squared_step, int* left) {
-  constexpr int kFar = 1 << 30;
-  int last = -kFar;
-  for (int i = 0; i < n; ++i) {
-    last = mask[i] ? i : last;
-    left[i] = last;
-  }
-  if (last < 0) {  // no feature in the row
+              std::int32_t row_start, const float* squared_step) {
+  int feature = next_feature(mask, 0, n);
+  if (feature == n) {  // no feature in the row
     std::fill_n(value, n, kInf);
     if constexpr (kNearest) std::fill_n(index, n, -1);
     return;
   }
-  int next = kFar;
-  for (int i = n - 1; i >= 0; --i) {
-    next = mask[i] ? i : next;
-    const int pick = next - i < i - left[i] ? next : left[i];
-    value[i] = squared_step[i - pick < 0 ? pick - i : i - pick];
-    if constexpr (kNearest) index[i] = row_start + pick;
+  fill_gap<kNearest>(value, index, 0, feature, feature, row_start, squared_step);
+  for (;;) {
+    const int run_end = next_non_feature(mask, feature, n);
+    std::fill(value + feature, value + run_end, 0.0f);
+    if constexpr (kNearest)
+      for (int i = feature; i < run_end; ++i) index[i] = row_start + i;
+    if (run_end == n) return;
+    const int last = run_end - 1;
+    feature = next_feature(mask, run_end, n);
+    if (feature == n) {
+      fill_gap<kNearest>(value, index, run_end, n, last, row_start, squared_step);
+      return;
+    }
+    // i − last ≤ feature − i, ties to the lower feature.
+    const int split = (last + feature) / 2 + 1;
+    fill_gap<kNearest>(value, index, run_end, split, last, row_start, squared_step);
+    fill_gap<kNearest>(value, index, split, feature, feature, row_start, squared_step);
   }
 }
 
 // Writes samples [lo, hi) of a line from the lower envelope of the m parabolas in `s`. Each is
-// lowest on one interval, left to right; the interval of k ends where it meets k+1, at
-// t = (F_{k+1} − F_k) / (2w·(q_{k+1} − q_k)). Most intervals hold one or two samples, so rather
-// than a loop per parabola (a mispredicted exit each), count the interval ends at each sample
-// and walk the samples once, branch-free.
+// lowest on one interval, left to right; the interval of k ends where k+1 takes over. Most
+// intervals hold one or two samples, so rather than a loop per parabola (a mispredicted exit
+// each), count the interval ends at each sample and walk the samples once, branch-free.
 template <bool kNearest>
 void fill_from_envelope(float* value, std::int32_t* index, std::ptrdiff_t stride, double w, int lo,
                         int hi, int m, Scratch& s) {
   const double* site = s.site.data();
   const double* sf = s.site_f.data();
-  const double* sF = s.site_F.data();
+  const double* rise = s.rise.data();
+  const double* run = s.run.data();
+  const std::int32_t* sindex = s.site_index.data();
   int* ends_at = s.ends_at.data();
   std::fill(ends_at + lo, ends_at + hi + 1, 0);
   for (int k = 0; k + 1 < m; ++k) {
-    const double t = (sF[k + 1] - sF[k]) / (2.0 * w * (site[k + 1] - site[k]));
+    const double t = rise[k + 1] / (2.0 * w * run[k + 1]);
     // Samples at t itself tie, and keep k. Ends beyond hi are never reached.
     const int end = t < lo ? lo : t >= hi ? hi : int(t) + 1;
     ends_at[end] += 1;
@@ -103,66 +153,87 @@ void fill_from_envelope(float* value, std::int32_t* index, std::ptrdiff_t stride
   int k = 0;
   for (int p = lo; p < hi; ++p) {
     k += ends_at[p];
-    const double d = p - site[k];
+    const double d = double(p) - site[k];
     value[p * stride] = float(sf[k] + w * d * d);
-    if constexpr (kNearest) index[p * stride] = s.site_index[k];
+    if constexpr (kNearest) index[p * stride] = sindex[k];
   }
 }
 
 // One j or k line of n samples at `stride` apart, squared spacing w:
 //   value[p] ← min_q value[q] + w·(p − q)²,  index[p] ← index[argmin q].
 // +inf samples hold no feature. Ties (as far as double arithmetic resolves them) keep the lower
-// q. All arithmetic is in double on sample indices, so the only rounding that matters is the
-// float of the stored values.
+// q. The envelope arithmetic is in double, so the only rounding that matters is the float of
+// the stored values.
 //
 // A zero sample is a feature voxel: it keeps its value and index, and no parabola beyond it can
 // win on its other side (f_r + w·(p − r)² > w·(p − q)² when r < q < p). So zeros cut the line into
-// independent segments, and only the non-zero samples cost any work.
+// independent segments; a run of zeros costs one compare per sample, and only the non-zero
+// samples cost any envelope work.
 template <bool kNearest>
 void envelope_line(float* value, std::int32_t* index, int n, std::ptrdiff_t stride, double w,
                    const double* w_q2, Scratch& s) {
   double* site = s.site.data();
   double* sf = s.site_f.data();
   double* sF = s.site_F.data();
+  double* rise = s.rise.data();
+  double* run = s.run.data();
   std::int32_t* sindex = s.site_index.data();
   int m = 0;        // parabolas on the envelope stack
   int pending = 0;  // first sample not yet written
-  auto reset_to = [&](double x, double F, std::int32_t feature) {
-    site[0] = x;  // the segment after a zero starts with the zero's parabola alone
-    sf[0] = 0.0;
-    sF[0] = F;
-    if constexpr (kNearest) sindex[0] = feature;
-    m = 1;
-  };
-  for (int q = 0; q < n; ++q) {
-    const float fq = value[q * stride];
-    if (fq == kInf) continue;
-    const double x = q, Fq = double(fq) + w_q2[q];
-    const std::int32_t feature = kNearest ? index[q * stride] : 0;
-    if (fq == 0.0f && pending == q) {  // a run of zeros: nothing to write
-      reset_to(x, Fq, feature);
-      pending = q + 1;
-      continue;
-    }
-    // The top parabola v is hidden once q's crosses it no later than v crosses the one below
-    // it, u: (F_q − F_v)/(q − v) ≤ (F_v − F_u)/(v − u), cross-multiplied (positive
-    // denominators, and w cancels) so the build needs no division. Exact ties drop v.
-    while (m >= 2 && (Fq - sF[m - 1]) * (site[m - 1] - site[m - 2]) <=
-                         (sF[m - 1] - sF[m - 2]) * (x - site[m - 1]))
-      --m;
+  auto put = [&](int q, double x, float fq, double Fq) {
     site[m] = x;
     sf[m] = fq;
     sF[m] = Fq;
-    if constexpr (kNearest) sindex[m] = feature;
+    if constexpr (kNearest) sindex[m] = index[q * stride];
     ++m;
-    if (fq == 0.0f) {
-      fill_from_envelope<kNearest>(value, index, stride, w, pending, q, m, s);
-      reset_to(x, Fq, feature);
-      pending = q + 1;
+  };
+  // Pushes the parabola of sample q, first dropping the top ones it hides: top v is hidden once
+  // q takes over from v no later than v takes over from the one below it u,
+  // (F_q − F_v)/(q − v) ≤ (F_v − F_u)/(v − u) = rise_v/run_v, cross-multiplied (positive runs)
+  // so that no division delays the test. Exact ties drop v. The bottom parabola has rise −1 and
+  // run 0, so the test always keeps it and needs no stack-size check.
+  auto push = [&](int q, float fq) {
+    const double x = q, Fq = double(fq) + w_q2[q];
+    while ((Fq - sF[m - 1]) * run[m - 1] <= rise[m - 1] * (x - site[m - 1])) --m;
+    rise[m] = Fq - sF[m - 1];
+    run[m] = x - site[m - 1];
+    put(q, x, fq, Fq);
+  };
+  // Starts a new envelope with the parabola of sample q alone.
+  auto seed = [&](int q, float fq) {
+    m = 0;
+    rise[0] = -1.0;
+    run[0] = 0.0;
+    put(q, q, fq, double(fq) + w_q2[q]);
+  };
+  // The line starts with a sentinel parabola at −1 that is +inf everywhere: the test never drops
+  // it ((F_q − ∞)·0 is NaN, and NaN ≤ x is false), it takes over nowhere (its successor's rise is
+  // −∞), and the loop below needs no empty-stack check.
+  site[0] = -1.0;
+  sf[0] = sF[0] = kInf;
+  rise[0] = -1.0;
+  run[0] = 0.0;
+  if constexpr (kNearest) sindex[0] = -1;
+  m = 1;
+  const float* sample = value;
+  for (int q = 0; q < n; ++q, sample += stride) {
+    const float fq = *sample;
+    if (fq == kInf) continue;
+    if (fq != 0.0f) {
+      push(q, fq);
+      continue;
     }
+    if (pending < q) {  // the zero closes the segment before it
+      push(q, fq);
+      fill_from_envelope<kNearest>(value, index, stride, w, pending, q, m, s);
+    }
+    for (; q + 1 < n && sample[stride] == 0.0f; sample += stride) ++q;  // the rest of the run
+    seed(q, 0.0f);  // the segment after the run starts with the last zero's parabola alone
+    pending = q + 1;
   }
-  // No feature on the line: it stays +inf / −1.
-  if (m > 0 && pending < n) fill_from_envelope<kNearest>(value, index, stride, w, pending, n, m, s);
+  // With only the sentinel left there is no feature on the line: it stays +inf / −1.
+  if (pending < n && sF[m - 1] < kInf)
+    fill_from_envelope<kNearest>(value, index, stride, w, pending, n, m, s);
 }
 
 template <class T>
@@ -218,7 +289,7 @@ void transform(const Mask& features, float* value, std::int32_t* index) {
         const std::size_t row = slice_start + std::size_t(j) * nx;
         scan_row<kNearest>(features.data.data() + row, value + row,
                            kNearest ? index + row : nullptr, nx, std::int32_t(row),
-                           squared_step_x.data(), s.left.data());
+                           squared_step_x.data());
       }
       if (ny == 1) continue;
       for (int t = 0; t < tiles_per_row; ++t) {
@@ -242,9 +313,34 @@ void transform(const Mask& features, float* value, std::int32_t* index) {
       });
 }
 
-}  // namespace
 
-FeatureTransform compute_feature_transform(const Mask& features, bool compute_nearest) {
+// Asks the kernel to back the whole 2 MiB pages inside [data, data + bytes) by huge pages.
+void advise_huge_pages(void* data, std::size_t bytes) {
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+  constexpr std::uintptr_t kHuge = std::uintptr_t(2) << 20;
+  const std::uintptr_t begin = (std::uintptr_t(data) + kHuge - 1) & ~(kHuge - 1);
+  const std::uintptr_t end = (std::uintptr_t(data) + bytes) & ~(kHuge - 1);
+  if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
+#else
+  (void)data;
+  (void)bytes;
+#endif
+}
+
+// Sizes `v` to n elements. A fresh buffer is first asked to be backed by huge pages: faulting
+// in 2 MiB pages instead of 4 KiB ones makes the first touch of a large volume several times
+// cheaper (Linux transparent huge pages in "madvise" mode; elsewhere a no-op).
+template <class T>
+void size_buffer(std::vector<T>& v, std::size_t n) {
+  if (v.capacity() < n) {
+    v = std::vector<T>();
+    v.reserve(n);
+    advise_huge_pages(v.data(), n * sizeof(T));
+  }
+  v.resize(n);
+}
+
+void check_input(const Mask& features) {
   const Grid& grid = features.grid;
   if (grid.dims[0] < 0 || grid.dims[1] < 0 || grid.dims[2] < 0)
     throw InputError("distance transform: negative grid dimensions");
@@ -256,17 +352,32 @@ FeatureTransform compute_feature_transform(const Mask& features, bool compute_ne
       throw InputError("distance transform: voxel spacing must be positive and finite");
   if (features.data.size() != grid.voxel_count())
     throw InputError("distance transform: feature mask size does not match its grid");
+}
 
-  FeatureTransform out;
-  out.squared_distance_mm2 = Volume<float>(grid);
+}  // namespace
+
+void compute_feature_transform(const Mask& features, FeatureTransform& out,
+                               bool compute_nearest) {
+  check_input(features);
+  const Grid& grid = features.grid;
+  const std::size_t n = grid.voxel_count();
+  out.squared_distance_mm2.grid = grid;
   out.nearest.grid = grid;
-  if (grid.voxel_count() == 0) return out;
-  if (compute_nearest) {
-    out.nearest.data.resize(grid.voxel_count());
+  size_buffer(out.squared_distance_mm2.data, n);
+  if (compute_nearest)
+    size_buffer(out.nearest.data, n);
+  else
+    out.nearest.data.clear();
+  if (n == 0) return;
+  if (compute_nearest)
     transform<true>(features, out.squared_distance_mm2.data.data(), out.nearest.data.data());
-  } else {
+  else
     transform<false>(features, out.squared_distance_mm2.data.data(), nullptr);
-  }
+}
+
+FeatureTransform compute_feature_transform(const Mask& features, bool compute_nearest) {
+  FeatureTransform out;
+  compute_feature_transform(features, out, compute_nearest);
   return out;
 }
 

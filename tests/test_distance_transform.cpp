@@ -201,6 +201,31 @@ TEST(DistanceTransform, RejectsNonPositiveSpacing) {
   EXPECT_THROW(cvt::compute_feature_transform(m), cvt::InputError);
 }
 
+TEST(DistanceTransform, ReusedOutputsMatchFreshOnes) {
+  // One output reused across grids of other sizes and masks, with and without the feature
+  // volume: stale values from an earlier mask must never leak into a later result.
+  const Mask masks[] = {
+      random_mask({31, 17, 11}, {0.617, 0.617, 1.333}, 0.02, 11),
+      random_mask({31, 17, 11}, {0.617, 0.617, 1.333}, 0.3, 12),
+      random_mask({9, 40, 6}, {2.5, 0.3, 1.1}, 0.01, 13),
+      random_mask({31, 17, 11}, {1, 1, 1}, 0.0, 14),
+      random_mask({50, 20, 30}, {0.617, 0.617, 1.333}, 0.001, 15),
+  };
+  FeatureTransform out;
+  for (bool nearest : {true, false, true})
+    for (const Mask& m : masks) {
+      cvt::compute_feature_transform(m, out, nearest);
+      const FeatureTransform fresh = cvt::compute_feature_transform(m, nearest);
+      EXPECT_EQ(out.squared_distance_mm2.grid.dims, m.grid.dims);
+      ASSERT_EQ(out.squared_distance_mm2.size(), m.size());
+      EXPECT_EQ(std::memcmp(out.squared_distance_mm2.data.data(),
+                            fresh.squared_distance_mm2.data.data(), m.size() * sizeof(float)),
+                0);
+      EXPECT_EQ(out.nearest.data, fresh.nearest.data);
+      EXPECT_EQ(out.nearest.data.size(), nearest ? m.size() : 0u);
+    }
+}
+
 FeatureTransform run_with_threads(const Mask& m, int threads) {
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
   return cvt::compute_feature_transform(m);
