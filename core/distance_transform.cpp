@@ -135,8 +135,9 @@ void scan_row(const unsigned char* mask, float* value, std::int32_t* index, int 
 // intervals hold one or two samples, so rather than a loop per parabola (a mispredicted exit
 // each), count the interval ends at each sample and walk the samples once, branch-free.
 template <bool kNearest>
-void fill_from_envelope(float* value, std::int32_t* index, std::ptrdiff_t stride, double w, int lo,
-                        int hi, int m, Scratch& s) {
+void fill_from_envelope(float* value, std::int32_t* index, double w, int lo, int hi, int m,
+                        Scratch& s) {
+  constexpr int stride = kTileWidth;
   const double* site = s.site.data();
   const double* sf = s.site_f.data();
   const double* rise = s.rise.data();
@@ -151,15 +152,24 @@ void fill_from_envelope(float* value, std::int32_t* index, std::ptrdiff_t stride
     ends_at[end] += 1;
   }
   int k = 0;
-  for (int p = lo; p < hi; ++p) {
+  double x = lo;
+  for (int p = lo; p < hi; ++p, x += 1.0) {
     k += ends_at[p];
-    const double d = double(p) - site[k];
+    const double d = x - site[k];
     value[p * stride] = float(sf[k] + w * d * d);
     if constexpr (kNearest) index[p * stride] = sindex[k];
   }
 }
 
-// One j or k line of n samples at `stride` apart, squared spacing w:
+// Whether a stored squared distance is exactly +0 (they are never −0 or NaN); an integer compare
+// is one branch where a float compare is two (unordered, then equal).
+bool is_zero(const float* v) {
+  std::uint32_t bits;
+  std::memcpy(&bits, v, sizeof bits);
+  return bits == 0;
+}
+
+// One line of n samples of a tile (kTileWidth apart), squared spacing w:
 //   value[p] ← min_q value[q] + w·(p − q)²,  index[p] ← index[argmin q].
 // +inf samples hold no feature. Ties (as far as double arithmetic resolves them) keep the lower
 // q. The envelope arithmetic is in double, so the only rounding that matters is the float of
@@ -170,8 +180,9 @@ void fill_from_envelope(float* value, std::int32_t* index, std::ptrdiff_t stride
 // independent segments; a run of zeros costs one compare per sample, and only the non-zero
 // samples cost any envelope work.
 template <bool kNearest>
-void envelope_line(float* value, std::int32_t* index, int n, std::ptrdiff_t stride, double w,
-                   const double* w_q2, Scratch& s) {
+void envelope_line(float* value, std::int32_t* index, int n, double w, const double* w_q2,
+                   Scratch& s) {
+  constexpr int stride = kTileWidth;
   double* site = s.site.data();
   double* sf = s.site_f.data();
   double* sF = s.site_F.data();
@@ -225,15 +236,19 @@ void envelope_line(float* value, std::int32_t* index, int n, std::ptrdiff_t stri
     }
     if (pending < q) {  // the zero closes the segment before it
       push(q, fq);
-      fill_from_envelope<kNearest>(value, index, stride, w, pending, q, m, s);
+      fill_from_envelope<kNearest>(value, index, w, pending, q, m, s);
     }
-    for (; q + 1 < n && sample[stride] == 0.0f; sample += stride) ++q;  // the rest of the run
+    const float* const end = value + std::ptrdiff_t(n) * stride;  // the rest of the run
+    const float* next = sample + stride;
+    while (next != end && is_zero(next)) next += stride;
+    sample = next - stride;
+    q = int((sample - value) / stride);
     seed(q, 0.0f);  // the segment after the run starts with the last zero's parabola alone
     pending = q + 1;
   }
   // With only the sentinel left there is no feature on the line: it stays +inf / −1.
   if (pending < n && sF[m - 1] < kInf)
-    fill_from_envelope<kNearest>(value, index, stride, w, pending, n, m, s);
+    fill_from_envelope<kNearest>(value, index, w, pending, n, m, s);
 }
 
 template <class T>
@@ -258,7 +273,7 @@ void envelope_tile(float* value, std::int32_t* index, std::size_t first, int wid
     if constexpr (kNearest) copy_row(index + at, width, ti + std::size_t(q) * kTileWidth);
   }
   for (int c = 0; c < width; ++c)
-    envelope_line<kNearest>(tv + c, ti + c, n, kTileWidth, w, w_q2, s);
+    envelope_line<kNearest>(tv + c, ti + c, n, w, w_q2, s);
   for (int q = 0; q < n; ++q) {
     const std::size_t at = first + q * stride;
     copy_row(tv + std::size_t(q) * kTileWidth, width, value + at);
