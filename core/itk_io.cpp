@@ -14,6 +14,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -87,25 +88,78 @@ std::array<unsigned long long, 3> checked_3d_dims(const itk::ImageIOBase& io,
   return {io.GetDimensions(0), io.GetDimensions(1), io.GetDimensions(2)};
 }
 
+// "1e+30", "nan": short text for a number read from a file.
+std::string number_text(double value) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%g", value);
+  return text;
+}
+
+// The start of a NIfTI file (plain or gzip), read by us before and after ITK judges it.
+struct NiftiHeader {
+  unsigned char bytes[540] = {};  // a NIfTI-2 header; NIfTI-1 uses the first 348
+  int size = 0;                   // sizeof_hdr: 348 (NIfTI-1), 540 (NIfTI-2), else 0
+  bool swap = false;              // the file's byte order is not ours
+
+  template <class T>
+  T load(int offset) const {
+    unsigned char b[sizeof(T)];
+    std::memcpy(b, bytes + offset, sizeof b);
+    if (swap) std::reverse(b, b + sizeof b);
+    T value;
+    std::memcpy(&value, b, sizeof b);
+    return value;
+  }
+};
+
+NiftiHeader read_nifti_header(const std::string& path) {
+  NiftiHeader h;
+  std::unique_ptr<gzFile_s, int (*)(gzFile)> f(gzopen(path.c_str(), "rb"), gzclose);
+  const int got = f ? gzread(f.get(), h.bytes, sizeof h.bytes) : -1;
+  for (bool swap : {false, true}) {
+    h.swap = swap;
+    const std::int32_t size = h.load<std::int32_t>(0);
+    if ((size == 348 || size == 540) && got >= size) {
+      h.size = size;
+      return h;
+    }
+  }
+  h.size = 0;  // not a complete NIfTI header: ITK judges the file
+  return h;
+}
+
+// niftilib turns pixdim, the quaternion, the offsets and the sform into a float matrix that ITK
+// decomposes (vnl_svd), which aborts the process on a NaN or an infinity. Refused first.
+void require_finite_nifti_geometry(const std::string& path) {
+  const NiftiHeader h = read_nifti_header(path);
+  if (h.size != 348) return;  // ITK 5.2 reads NIfTI-1 only
+  struct Field {
+    const char* name;
+    int offset, count;
+  };
+  static constexpr Field kFields[] = {{"pixdim", 76, 4}, {"quatern", 256, 3}, {"qoffset", 268, 3},
+                                      {"srow", 280, 12}};
+  for (const Field& field : kFields) {
+    for (int i = 0; i < field.count; ++i) {
+      const float v = h.load<float>(field.offset + 4 * i);
+      // Beyond 1e15 mm no image is real, and squares of such values overflow float.
+      if (!(std::fabs(v) <= 1e15f)) {
+        throw InputError(path + ": corrupt NIfTI header (" + field.name + " value " +
+                         number_text(v) + ")");
+      }
+    }
+  }
+}
+
 // niftilib reads a short .nii/.nii.gz without failing (it zero-fills and at most warns), so we
 // compare the file with vox_offset + data size from the header ourselves.
 void require_complete_nifti(const std::string& path, std::size_t data_bytes) {
-  unsigned char h[176] = {};
-  std::unique_ptr<gzFile_s, int (*)(gzFile)> f(gzopen(path.c_str(), "rb"), gzclose);
-  if (!f || gzread(f.get(), h, sizeof h) != int(sizeof h)) return;  // ITK has judged the header
-  f.reset();
-  auto load = [&](auto value, int offset, bool swap) {
-    unsigned char b[sizeof value];
-    std::memcpy(b, h + offset, sizeof b);
-    if (swap) std::reverse(b, b + sizeof b);
-    std::memcpy(&value, b, sizeof b);
-    return value;
-  };
+  const NiftiHeader h = read_nifti_header(path);
   double vox_offset = -1;
-  for (bool swap : {false, true}) {
-    const std::int32_t size = load(std::int32_t{}, 0, swap);
-    if (size == 348) vox_offset = load(float{}, 108, swap);                 // NIfTI-1
-    if (size == 540) vox_offset = double(load(std::int64_t{}, 168, swap));  // NIfTI-2
+  if (h.size == 348) vox_offset = h.load<float>(108);
+  if (h.size == 540) vox_offset = double(h.load<std::int64_t>(168));
+  if (std::isnan(vox_offset) || vox_offset > 1e15) {  // a float from the file, not yet a size
+    throw InputError(path + ": corrupt NIfTI header (vox_offset " + number_text(vox_offset) + ")");
   }
   if (vox_offset >= 0) require_complete_file(path, std::size_t(vox_offset) + data_bytes);
 }
@@ -258,13 +312,17 @@ Image read_image_itk(const std::string& path, const ReadOptions& options) {
                      " file (cannot read its header)");
   }
   io->SetFileName(path);
+  const std::string ext = image_extension(path);
+  if (ext == "nii" || ext == "nii.gz") require_finite_nifti_geometry(path);
   try {
     io->ReadImageInformation();
   } catch (const itk::ExceptionObject& e) {
     throw InputError(path + ": cannot read its header: " + describe(e));
   }
+  // ITK throws from GetComponentSize() on a type it could not name (MetaImage's MET_NONE).
+  if (io->GetComponentType() == itk::IOComponentEnum::UNKNOWNCOMPONENTTYPE)
+    throw InputError(path + ": unsupported or missing pixel type");
   const std::size_t voxels = checked_voxel_count(checked_3d_dims(*io, path), path);
-  const std::string ext = image_extension(path);
   const std::size_t data_bytes = voxels * io->GetComponentSize();
   if (ext == "nii" || ext == "nii.gz") require_complete_nifti(path, data_bytes);
   if (ext == "mha" || ext == "mhd") require_complete_metaimage(path, data_bytes);

@@ -4,7 +4,9 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sstream>
+#include <utility>
 #include <unistd.h>
 
 #include <nlohmann/json.hpp>
@@ -39,6 +41,8 @@ void for_each_field(Parameters& p, F&& f) {
   f("interior_points", p.interior_points);
   f("epsilon_mm", p.epsilon_mm);
   f("max_iterations", p.max_iterations);
+  f("fidelity_rounds", p.fidelity_rounds);
+  f("fidelity_tolerance_mm", p.fidelity_tolerance_mm);
   f("optimize", p.optimize);
   f("seed", p.seed);
   f("threads", p.threads);
@@ -58,6 +62,11 @@ void read_value(const json& j, const std::string& key, T& out) {
     if constexpr (std::is_unsigned_v<T>)
       if (j.is_number_integer() && !j.is_number_unsigned() && j.get<std::int64_t>() < 0)
         throw InputError(key + ": must not be negative");
+    // get<T> would wrap a value beyond T (4294967297 threads would become 1).
+    const bool fits = j.is_number_unsigned()
+                          ? j.get<std::uint64_t>() <= std::uint64_t(std::numeric_limits<T>::max())
+                          : std::in_range<T>(j.get<std::int64_t>());
+    if (!fits) throw InputError(key + ": " + j.dump() + " is out of range");
     out = j.get<T>();
   } else if constexpr (std::is_floating_point_v<T>) {
     if (!j.is_number()) throw InputError(key + ": expected a number, got " + type_name(j));
@@ -122,6 +131,9 @@ void validate(const Parameters& p) {
   require(finite(p.epsilon_mm) && p.epsilon_mm >= 0, "epsilon_mm", "must be >= 0 (0 = auto)");
   require(p.max_iterations >= 0 && p.max_iterations <= 100000, "max_iterations",
           "must be in 0..100000");
+  require(p.fidelity_rounds >= 0 && p.fidelity_rounds <= 10, "fidelity_rounds", "must be in 0..10");
+  require(finite(p.fidelity_tolerance_mm) && p.fidelity_tolerance_mm >= 0, "fidelity_tolerance_mm",
+          "must be >= 0 (0 = auto)");
   require(p.optimize == "none" || p.optimize == "default", "optimize",
           "must be \"none\" or \"default\"");
   require(p.threads >= 0 && p.threads <= 1024, "threads", "must be in 0..1024 (0 = all cores)");
@@ -168,6 +180,8 @@ Parameters load_preset(const std::string& path, const Parameters& base) {
     j = json::parse(in);
   } catch (const json::parse_error& e) {
     throw InputError(path + ": not valid JSON (byte " + std::to_string(e.byte) + ")");
+  } catch (const json::out_of_range&) {  // a number beyond double, such as 1e999
+    throw InputError(path + ": not valid JSON (a number is out of range)");
   }
   try {
     return parameters_from_json(j, base);

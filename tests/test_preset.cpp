@@ -60,6 +60,12 @@ TEST(Preset, BadKeysTypesAndValuesNameTheKey) {
   EXPECT_NE(error_of({{"max_iterations", 2.5}}).find("max_iterations: expected an integer"),
             std::string::npos);
   EXPECT_NE(error_of({{"seed", -3}}).find("seed: must not be negative"), std::string::npos);
+  // Integers beyond the parameter's type are refused, not wrapped (2^32 + 1 threads is not 1).
+  EXPECT_NE(error_of({{"threads", 4294967297LL}}).find("threads: 4294967297 is out of range"),
+            std::string::npos);
+  EXPECT_NE(error_of({{"max_iterations", -4294967296LL}}).find("out of range"), std::string::npos);
+  EXPECT_NE(error_of({{"interior_points", 18446744073709551615ULL}}).find("out of range"),
+            std::string::npos);
   EXPECT_NE(error_of({{"labels", {1, "x"}}}).find("labels"), std::string::npos);
   EXPECT_NE(error_of({{"optimize", "fast"}}).find("optimize"), std::string::npos);
   EXPECT_NE(error_of({{"lfs_min_mm", 3}, {"lfs_max_mm", 2}}).find("lfs_max_mm"), std::string::npos);
@@ -75,6 +81,16 @@ TEST(Preset, BadFilesNameThePath) {
     FAIL();
   } catch (const InputError& e) {
     EXPECT_NE(std::string(e.what()).find(garbage.string()), std::string::npos);
+  }
+  // A number beyond double is a JSON error too, not a crash (found by fuzz_preset).
+  const fs::path overflow = dir / "overflow.json";
+  std::ofstream(overflow) << "{\"epsilon_mm\": 1e999}";
+  try {
+    load_preset(overflow.string());
+    FAIL();
+  } catch (const InputError& e) {
+    EXPECT_NE(std::string(e.what()).find(overflow.string() + ": not valid JSON"),
+              std::string::npos);
   }
   EXPECT_THROW(load_preset((dir / "missing.json").string()), InputError);
   // Writing into a missing folder fails cleanly and leaves nothing behind.
