@@ -34,11 +34,6 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 // (TLB) miss of each strided k row, while a 32 × 1000 tile of values + indices stays in L2.
 constexpr int kTileWidth = 32;
 
-// Position of the lowest non-zero byte of a little-endian word (w ≠ 0).
-int next_set_byte(std::uint64_t w) {
-  return __builtin_ctzll(w) / 8;
-}
-
 // Per-thread work memory, sized once for the longest axis so no line allocates.
 struct Scratch {
   std::vector<float> tile_value;         // a tile of lines, row-major (kTileWidth per row)
@@ -54,18 +49,20 @@ struct Scratch {
     const int longest = std::max({dims[0], dims[1], dims[2]});
     tile_value.resize(std::size_t(kTileWidth) * std::max(dims[1], dims[2]));
     tile_index.resize(tile_value.size());
-    for (auto* v : {&site, &site_f, &site_F, &rise, &run}) v->resize(longest);
-    site_index.resize(longest);
+    // A line's stack holds the sentinel plus at most one parabola per sample.
+    for (auto* v : {&site, &site_f, &site_F, &rise, &run}) v->resize(longest + 1);
+    site_index.resize(longest + 1);
     ends_at.resize(longest + 1);
   }
 };
 
-// First i in [i, n) with a non-zero (feature) mask byte, or n; eight bytes at a time.
+// First i in [i, n) with a non-zero (feature) mask byte, or n. Skips eight bytes at a time, then
+// finds the byte within the word one by one (independent of byte order).
 int next_feature(const unsigned char* mask, int i, int n) {
   for (; i + 8 <= n; i += 8) {
     std::uint64_t w;
     std::memcpy(&w, mask + i, 8);
-    if (w) return i + next_set_byte(w);
+    if (w) break;
   }
   while (i < n && !mask[i]) ++i;
   return i;
@@ -77,9 +74,7 @@ int next_non_feature(const unsigned char* mask, int i, int n) {
   for (; i + 8 <= n; i += 8) {
     std::uint64_t w;
     std::memcpy(&w, mask + i, 8);
-    // The lowest flagged byte is the lowest zero byte (higher flags may be false positives).
-    const std::uint64_t zero_bytes = (w - kOnes) & ~w & kHighs;
-    if (zero_bytes) return i + next_set_byte(zero_bytes);
+    if ((w - kOnes) & ~w & kHighs) break;  // non-zero exactly when some byte is zero
   }
   while (i < n && mask[i]) ++i;
   return i;

@@ -137,6 +137,19 @@ TEST(DistanceTransform, LargeShapeSampled) {
   expect_matches_brute_force(m, 127);
 }
 
+TEST(DistanceTransform, PlaneOfFeaturesKeepsEveryParabola) {
+  // Features fill the plane i = 0, so along j and k every sample away from it has the same
+  // value: every parabola of such a line stays on its lower envelope, the deepest stack a line
+  // of the longest axis can build.
+  Grid g;
+  g.dims = {7, 40, 23};
+  g.spacing = {0.617, 0.617, 1.333};
+  Mask m(g);
+  for (int k = 0; k < g.dims[2]; ++k)
+    for (int j = 0; j < g.dims[1]; ++j) m.at(0, j, k) = 1;
+  expect_matches_brute_force(m);
+}
+
 TEST(DistanceTransform, EquidistantFeaturesBothValid) {
   // Two features symmetric about the middle plane: every voxel of that plane is a tie.
   Grid g;
