@@ -39,7 +39,15 @@ if(EXISTS ${CVT_LIVER})
     ${CVT_GUI_OUT}/liver_voronoi.png 2560 1600 0.25 300
     ${CVT_LIVER} --run-all --view slice --slice-axis 2 --overlay object voronoi samples interior
     shallow --scale 2)
-  set_tests_properties(test_gui_liver_cutaway test_gui_liver_voronoi PROPERTIES TIMEOUT 180)
+  # Stage 6 stepped pass by pass to the end, then evaluated: the whole window, the quality
+  # panel showing Table I and histograms before and after, the cut-away by min dihedral.
+  add_test(NAME test_gui_liver_optimized COMMAND ${CVT_GUI_RUN}
+    --expect-output "^stage 6: [1-9][0-9]* passes"
+    ${CVT_GUI_OUT}/liver_optimized.png 1280 800 0.3 300
+    ${CVT_LIVER} --run-all --optimize-passes -1 --view 3d --clip 0.5
+    --colour-by min_dihedral_deg --screenshot-ui)
+  set_tests_properties(test_gui_liver_cutaway test_gui_liver_voronoi test_gui_liver_optimized
+    PROPERTIES TIMEOUT 180)
 else()
   message(STATUS "${CVT_LIVER} missing (scripts/fetch-data): the liver viewer tests are skipped")
 endif()
@@ -48,6 +56,15 @@ add_test(NAME test_gui_phantom_split COMMAND ${CVT_GUI_RUN}
   ${CVT_GUI_OUT}/torus_split.png 1280 800 0.15 100
   ${PROJECT_SOURCE_DIR}/assets/phantom_torus.nii.gz --run-all --view split --clip 0.5
   --overlay object lfs medial samples --transparent)
+# Inputs as events: the torus dropped on the window through GLFW's drop callback, then Ctrl+R
+# (run all) and Shift+O (optimise to the end) as GLFW key events; without them the 3D view
+# would stay empty.
+add_test(NAME test_gui_drop_and_keys COMMAND ${CVT_GUI_RUN}
+  --expect-output "^stage 6: [1-9][0-9]* passes"
+  ${CVT_GUI_OUT}/torus_drop_keys.png 1280 800 0.05 50
+  --drop ${PROJECT_SOURCE_DIR}/assets/phantom_torus.nii.gz --press ctrl+r shift+o --view 3d
+  --clip 0.5)
+set_tests_properties(test_gui_drop_and_keys PROPERTIES TIMEOUT 60)
 # A bad file: exit code 1 and one line on stderr, no screenshot.
 add_test(NAME test_gui_bad_file COMMAND ${CVT_GUI_RUN} --expect-failure
   ${CVT_GUI_OUT}/bad.png 0 0 0 0 ${CMAKE_CURRENT_SOURCE_DIR}/CMakeLists.txt --run-all)

@@ -1,6 +1,8 @@
 // The viewer's GL-free control logic (app/gui/): stale marking and re-run decisions, view
 // layout, the worker thread (order, cancel, failures, live Lloyd states), the session driving
-// a real pipeline, recent files, parameter tooltips, frame statistics. No window.
+// a real pipeline (stage 6 pass by pass too), recent files, parameter tooltips, frame
+// statistics, and every user input (command line, File > Open, drops, recent files, keys)
+// through the functions the window calls. No window (GLFW's header for its key codes only).
 #include <gtest/gtest.h>
 
 #include <atomic>
@@ -10,7 +12,11 @@
 #include <nlohmann/json.hpp>
 #include <thread>
 
+#define GLFW_INCLUDE_NONE
+#include <GLFW/glfw3.h>
+
 #include "frame_stats.h"
+#include "input_actions.h"
 #include "image_io.h"
 #include "parameter_info.h"
 #include "phantoms.h"
@@ -506,4 +512,212 @@ TEST(OptimizationSettings, EveryFieldHasATooltipAndCounts) {
   clamp_optimization_options(wild);
   EXPECT_EQ(wild.max_passes, 0);
   EXPECT_LE(wild.target_dihedral_deg, 35);
+}
+
+// The user's inputs (issue 5): the command line, File > Open, drag and drop, recent files and
+// the keyboard, each through the function the window calls.
+TEST(Inputs, CommandLineOpensAndRuns) {
+  Session s;
+  start_session(s, {torus_file(), false, Stage::surface, 0});
+  settle(s);
+  ASSERT_EQ(s.failed_jobs, 0u) << s.first_error;
+  EXPECT_EQ(s.image_path, torus_file());
+  EXPECT_EQ(s.stage_states()[int(Stage::surface)], StageState::done);
+  EXPECT_EQ(s.stage_states()[int(Stage::cvt)], StageState::stale);
+  // Without an image nothing runs.
+  Session empty;
+  start_session(empty, {"", true, std::nullopt, 0});
+  settle(empty);
+  EXPECT_EQ(empty.scene(), nullptr);
+  EXPECT_FALSE(empty.busy());
+}
+
+TEST(Inputs, OpenDialogListsAndOpensThePathField) {
+  const auto dir = temp_dir("dialog");
+  std::filesystem::create_directories(dir / "series");
+  std::filesystem::create_directories(dir / ".hidden");
+  for (const char* name : {"b.nii.gz", "A.NRRD", "notes.txt", ".secret.nii"})
+    std::ofstream(dir / name) << "x";
+  const FolderListing listing = list_folder(dir.string(), image_extensions());
+  EXPECT_TRUE(listing.error.empty());
+  ASSERT_EQ(listing.folders.size(), 1u);
+  EXPECT_EQ(listing.folders[0], (dir / "series").string());
+  ASSERT_EQ(listing.files.size(), 2u);  // images only, case-insensitive, sorted, no hidden
+  EXPECT_EQ(listing.files[0], (dir / "A.NRRD").string());
+  EXPECT_EQ(listing.files[1], (dir / "b.nii.gz").string());
+  EXPECT_EQ(list_folder(dir.string(), {}).files.size(), 3u);
+  EXPECT_FALSE(list_folder((dir / "missing").string(), {}).error.empty());
+
+  // Ctrl+O opens the dialog on the working folder; the path field is what opens.
+  Session s;
+  ViewSettings view;
+  UiState ui;
+  perform(*action_for_key(GLFW_KEY_O, true, false), s, view, ui);
+  EXPECT_TRUE(ui.open_image.open);
+  EXPECT_EQ(ui.open_image.folder, std::filesystem::current_path().string());
+  ui.open_image.path = "";
+  confirm_dialog(Dialog::open_image, s, ui);  // an empty path does nothing
+  EXPECT_TRUE(ui.open_image.open);
+  ui.open_image.path = torus_file();
+  confirm_dialog(Dialog::open_image, s, ui);
+  EXPECT_FALSE(ui.open_image.open);
+  settle(s);
+  EXPECT_EQ(s.image_path, torus_file());
+  ASSERT_NE(s.scene(), nullptr);
+  EXPECT_NE(s.scene()->image, nullptr);
+  // A bad path from the field: an error message, the image stays.
+  open_dialog(ui.open_image, "");
+  ui.open_image.path = (dir / "notes.txt").string();
+  confirm_dialog(Dialog::open_image, s, ui);
+  settle(s);
+  EXPECT_TRUE(s.messages.back().error);
+  EXPECT_EQ(s.image_path, torus_file());
+}
+
+TEST(Inputs, DroppedFilesAndRecentFiles) {
+  const std::string recent = (temp_dir("recent_session") / "recent.txt").string();
+  std::filesystem::remove(recent);
+  {
+    SessionOptions options;
+    options.recent_files_path = recent;
+    Session s(options);
+    std::vector<std::string> dropped{torus_file(), "/nonexistent/second.nii"};
+    open_dropped(s, dropped);
+    EXPECT_TRUE(dropped.empty());
+    settle(s);
+    EXPECT_EQ(s.failed_jobs, 0u);  // only the first is opened
+    EXPECT_EQ(s.image_path, torus_file());
+    ASSERT_FALSE(s.recent().files().empty());
+    EXPECT_EQ(s.recent().files().front(), torus_file());
+    bool named = false;
+    for (const Message& m : s.messages) named |= m.text.find("2 files dropped") != std::string::npos;
+    EXPECT_TRUE(named);
+    // A failed open does not enter the list.
+    std::vector<std::string> bad{"/nonexistent/liver.nii.gz"};
+    open_dropped(s, bad);
+    settle(s);
+    EXPECT_EQ(s.recent().files().size(), 1u);
+  }
+  // The next session finds it, and opening the entry (File > Recent) opens the image.
+  SessionOptions options;
+  options.recent_files_path = recent;
+  Session next(options);
+  ASSERT_EQ(next.recent().files().size(), 1u);
+  next.open_image(next.recent().files().front());
+  settle(next);
+  EXPECT_EQ(next.failed_jobs, 0u);
+  EXPECT_NE(next.scene()->image, nullptr);
+}
+
+TEST(Inputs, KeyBindingsMatchTheHelpAndDoWhatItSays) {
+  // One binding per key and modifiers; the help lists each binding with its label.
+  const auto& bindings = key_bindings();
+  const auto help = help_lines();
+  for (std::size_t i = 0; i < bindings.size(); ++i) {
+    const KeyBinding& b = bindings[i];
+    for (std::size_t j = i + 1; j < bindings.size(); ++j)
+      EXPECT_FALSE(b.key == bindings[j].key && b.ctrl == bindings[j].ctrl &&
+                   b.shift == bindings[j].shift)
+          << key_label(b) << " bound twice";
+    EXPECT_EQ(action_for_key(b.key, b.ctrl, b.shift), b.action);
+    ASSERT_LT(i, help.size());
+    EXPECT_EQ(help[i].keys, key_label(b));
+    EXPECT_EQ(help[i].action, action_description(b.action));
+    // Scripted presses name keys as the help does.
+    int key;
+    bool ctrl, shift;
+    ASSERT_TRUE(parse_key_chord(key_label(b), key, ctrl, shift)) << key_label(b);
+    EXPECT_EQ(key, b.key);
+    EXPECT_EQ(ctrl, b.ctrl);
+    EXPECT_EQ(shift, b.shift);
+  }
+  EXPECT_FALSE(action_for_key(GLFW_KEY_O, true, true).has_value());  // exact modifiers
+  int key;
+  bool ctrl, shift;
+  EXPECT_FALSE(parse_key_chord("ctrl+%", key, ctrl, shift));
+  EXPECT_EQ(key_label({GLFW_KEY_L, false, true, Action::lloyd_10}), "Shift+L");
+  EXPECT_EQ(key_label({GLFW_KEY_F12, false, false, Action::screenshot}), "F12");
+
+  // The keys act on the session and the view as described.
+  Session s;
+  ViewSettings view;
+  UiState ui;
+  auto press = [&](int k, bool c = false, bool sh = false) {
+    const auto a = action_for_key(k, c, sh);
+    ASSERT_TRUE(a.has_value()) << k;
+    perform(*a, s, view, ui);
+  };
+  press(GLFW_KEY_R, true);  // no image yet: nothing runs
+  EXPECT_FALSE(s.busy());
+  press(GLFW_KEY_E, true);  // no mesh: no export dialog
+  EXPECT_FALSE(ui.export_mesh.open);
+  s.open_image(torus_file());
+  settle(s);
+  press(GLFW_KEY_N);  // the next stage
+  settle(s);
+  EXPECT_EQ(s.stage_states()[int(Stage::preprocess)], StageState::done);
+  EXPECT_EQ(s.stage_states()[int(Stage::surface)], StageState::stale);
+  press(GLFW_KEY_L);  // one Lloyd iteration
+  settle(s);
+  ASSERT_NE(s.lloyd(), nullptr);
+  EXPECT_EQ(s.lloyd()->history.size(), 1u);
+  press(GLFW_KEY_L, false, true);  // ten more (or fewer, up to convergence)
+  settle(s);
+  EXPECT_GT(s.lloyd()->history.size(), 1u);
+  EXPECT_TRUE(s.lloyd()->history.size() == 11u || s.lloyd()->converged);
+  press(GLFW_KEY_O);  // one optimisation pass (stage 5 first)
+  settle(s);
+  ASSERT_EQ(s.failed_jobs, 0u) << s.first_error;
+  ASSERT_NE(s.scene()->optimization, nullptr);
+  EXPECT_EQ(s.scene()->optimization->history.size(), 2u);
+  press(GLFW_KEY_R, true);  // run all
+  settle(s);
+  for (StageState st : s.stage_states()) EXPECT_EQ(st, StageState::done);
+  press(GLFW_KEY_E, true);
+  EXPECT_TRUE(ui.export_mesh.open);
+  EXPECT_EQ(ui.export_mesh.path, "mesh.vtu");
+
+  const ViewMode mode = view.mode;
+  press(GLFW_KEY_TAB);
+  EXPECT_NE(view.mode, mode);
+  press(GLFW_KEY_TAB), press(GLFW_KEY_TAB);
+  EXPECT_EQ(view.mode, mode);
+  press(GLFW_KEY_1);
+  EXPECT_EQ(view.slice_axis, 0);
+  const int middle = effective_slice_index(view, *s.scene());
+  press(GLFW_KEY_UP);
+  EXPECT_EQ(view.slice_index, middle + 1);
+  press(GLFW_KEY_PAGE_DOWN);
+  EXPECT_EQ(view.slice_index, middle - 9);
+  press(GLFW_KEY_3);
+  EXPECT_EQ(view.slice_axis, 2);
+  EXPECT_EQ(view.slice_index, -1);
+  const bool clip = view.clip_enabled;
+  press(GLFW_KEY_C);
+  EXPECT_NE(view.clip_enabled, clip);
+  press(GLFW_KEY_C, false, true);
+  EXPECT_TRUE(view.clip_flip);
+  press(GLFW_KEY_F1);
+  EXPECT_TRUE(ui.show_help);
+  press(GLFW_KEY_H);
+  EXPECT_FALSE(ui.show_help);
+  press(GLFW_KEY_F2);
+  EXPECT_FALSE(ui.show_pipeline || ui.show_quality || ui.show_view);
+  press(GLFW_KEY_F);
+  EXPECT_TRUE(ui.fit_3d && ui.fit_slice);
+  press(GLFW_KEY_F12);
+  EXPECT_TRUE(ui.screenshot.open);
+  ui.screenshot.path = "shot.png";
+  ui.screenshot_scale = 3;
+  confirm_dialog(Dialog::screenshot, s, ui);
+  ASSERT_TRUE(ui.screenshot_request.has_value());
+  EXPECT_EQ(ui.screenshot_request->scale, 3);
+  // Esc cancels a running job and the queue behind it.
+  press(GLFW_KEY_O, false, true);  // stage 6 is done: the pass jobs do nothing
+  s.step_lloyd(50);
+  press(GLFW_KEY_ESCAPE);
+  settle(s);
+  EXPECT_FALSE(s.busy());
+  press(GLFW_KEY_Q, true);
+  EXPECT_TRUE(ui.quit);
 }

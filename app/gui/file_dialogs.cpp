@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <filesystem>
 
+#include "input_actions.h"
 #include "mesh_io.h"
 #include "ui.h"
 
@@ -13,17 +14,6 @@ namespace cvt::gui {
 namespace {
 
 namespace fs = std::filesystem;
-
-bool has_extension(const std::string& name, const std::vector<std::string>& extensions) {
-  if (extensions.empty()) return true;
-  std::string lower = name;
-  std::transform(lower.begin(), lower.end(), lower.begin(),
-                 [](unsigned char c) { return std::tolower(c); });
-  for (const std::string& e : extensions)
-    if (lower.size() >= e.size() && lower.compare(lower.size() - e.size(), e.size(), e) == 0)
-      return true;
-  return false;
-}
 
 // Draws the dialog; returns true when the user confirms `d.path` (then closes it).
 bool file_dialog(const char* title, FileDialog& d, const char* confirm,
@@ -48,36 +38,20 @@ bool file_dialog(const char* title, FileDialog& d, const char* confirm,
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip("Choose the folder (DICOM series, TIFF/PNG slices)");
   ImGui::BeginChild("listing", ImVec2(0, -ImGui::GetFrameHeightWithSpacing() * 1.3f), true);
-  std::vector<fs::directory_entry> dirs, files;
-  std::error_code ec;
-  for (fs::directory_iterator it(d.folder, ec), end; !ec && it != end; it.increment(ec)) {
-    const std::string name = it->path().filename().string();
-    if (name.empty() || name[0] == '.') continue;
-    if (it->is_directory(ec))
-      dirs.push_back(*it);
-    else if (has_extension(name, extensions))
-      files.push_back(*it);
-  }
-  if (ec) ImGui::TextDisabled("cannot list %s: %s", d.folder.c_str(), ec.message().c_str());
-  auto by_name = [](const auto& a, const auto& b) {
-    return a.path().filename() < b.path().filename();
-  };
-  std::sort(dirs.begin(), dirs.end(), by_name);
-  std::sort(files.begin(), files.end(), by_name);
+  const FolderListing listing = list_folder(d.folder, extensions);
+  if (!listing.error.empty()) ImGui::TextDisabled("%s", listing.error.c_str());
   std::string enter;
-  for (const auto& e : dirs) {
-    const std::string label = e.path().filename().string() + "/";
-    if (ImGui::Selectable(label.c_str(), d.path == e.path().string(),
-                          ImGuiSelectableFlags_AllowDoubleClick)) {
-      d.path = e.path().string();
-      if (ImGui::IsMouseDoubleClicked(0)) enter = e.path().string();
+  for (const std::string& dir : listing.folders) {
+    const std::string label = fs::path(dir).filename().string() + "/";
+    if (ImGui::Selectable(label.c_str(), d.path == dir, ImGuiSelectableFlags_AllowDoubleClick)) {
+      d.path = dir;
+      if (ImGui::IsMouseDoubleClicked(0)) enter = dir;
     }
   }
-  for (const auto& e : files) {
-    const std::string label = e.path().filename().string();
-    if (ImGui::Selectable(label.c_str(), d.path == e.path().string(),
-                          ImGuiSelectableFlags_AllowDoubleClick)) {
-      d.path = e.path().string();
+  for (const std::string& file : listing.files) {
+    const std::string label = fs::path(file).filename().string();
+    if (ImGui::Selectable(label.c_str(), d.path == file, ImGuiSelectableFlags_AllowDoubleClick)) {
+      d.path = file;
       if (ImGui::IsMouseDoubleClicked(0)) confirmed = true;
     }
   }
@@ -87,23 +61,16 @@ bool file_dialog(const char* title, FileDialog& d, const char* confirm,
   ImGui::SameLine();
   if (ImGui::Button("Close")) d.open = false;
   ImGui::End();
-  if (confirmed && !d.path.empty()) {
-    d.open = false;
-    return true;
-  }
-  return false;
+  return confirmed && !d.path.empty();
 }
-
-const std::vector<std::string> kImageExtensions{".nii", ".nii.gz", ".nrrd", ".nhdr",
-                                                ".mha", ".mhd",    ".inr",  ".inr.gz"};
 
 }  // namespace
 
 void draw_file_dialogs(UiContext& ctx) {
   Session& s = ctx.session;
   UiState& ui = ctx.ui;
-  if (file_dialog("Open image", ui.open_image, "Open", kImageExtensions))
-    s.open_image(ui.open_image.path);
+  if (file_dialog("Open image", ui.open_image, "Open", image_extensions()))
+    confirm_dialog(Dialog::open_image, s, ui);
   if (ui.export_mesh.open) {
     // The format follows the extension; the buttons swap it.
     ImGui::SetNextWindowSize(ImVec2(560, 440), ImGuiCond_FirstUseEver);
@@ -118,12 +85,11 @@ void draw_file_dialogs(UiContext& ctx) {
     ImGui::End();
   }
   if (file_dialog("Export mesh", ui.export_mesh, "Export", mesh_write_extensions()))
-    s.export_mesh(ui.export_mesh.path);
-  if (file_dialog("Load preset", ui.load_preset, "Load", {".json"})) {
-    if (s.load_preset(ui.load_preset.path)) s.parameters_edited(ui.now_s);
-  }
+    confirm_dialog(Dialog::export_mesh, s, ui);
+  if (file_dialog("Load preset", ui.load_preset, "Load", {".json"}))
+    confirm_dialog(Dialog::load_preset, s, ui);
   if (file_dialog("Save preset", ui.save_preset, "Save", {".json"}))
-    s.save_preset(ui.save_preset.path);
+    confirm_dialog(Dialog::save_preset, s, ui);
   if (ui.screenshot.open) {
     ImGui::SetNextWindowSize(ImVec2(560, 440), ImGuiCond_FirstUseEver);
     if (ImGui::Begin("Screenshot", &ui.screenshot.open)) {
@@ -133,8 +99,7 @@ void draw_file_dialogs(UiContext& ctx) {
     ImGui::End();
   }
   if (file_dialog("Screenshot", ui.screenshot, "Save PNG", {".png"}))
-    ui.screenshot_request =
-        ScreenshotRequest{ui.screenshot.path, ui.screenshot_scale, ui.screenshot_transparent};
+    confirm_dialog(Dialog::screenshot, s, ui);
 }
 
 }  // namespace cvt::gui

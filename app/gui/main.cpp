@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "input_actions.h"
 #include "viewer.h"
 
 namespace {
@@ -45,6 +46,8 @@ int main(int argc, char** argv) {
   app.add_flag("--transparent", transparent, "Screenshot with a transparent background");
   bool include_ui = false;
   app.add_flag("--screenshot-ui", include_ui, "Screenshot the whole window, panels included");
+  app.add_flag("--panels", o.panels,
+               "Draw the panels in a scripted run too (benchmarks of what a user sees)");
   app.add_option("--view", view_mode, "Views: 3d, slice or split (both side by side)")
       ->check(CLI::IsMember({"3d", "slice", "split"}));
   app.add_option("--slice-axis", o.view.slice_axis, "Slice axis: 0 sagittal, 1 coronal, 2 axial")
@@ -81,6 +84,12 @@ int main(int argc, char** argv) {
                  "save-preset, screenshot (with --screenshot-ui, to picture the interface)")
       ->check(CLI::IsMember(
           {"help", "messages", "open", "export", "load-preset", "save-preset", "screenshot"}));
+  app.add_option("--drop", o.drop,
+                 "Drop these paths on the window at start, through GLFW's drop callback (tests)");
+  app.add_option("--press", o.press,
+                 "Press these keys one after the other, each once every job is done, as GLFW "
+                 "key events (tests), e.g. ctrl+r shift+o f1; see the help window for the keys")
+      ->expected(1, -1);
   app.add_option("--threads", o.max_threads, "Threads for the pipeline (0 = all cores)");
   app.add_flag("--exit", o.exit_when_done, "Quit once every job is done (scripted mode)");
   app.add_option("--benchmark-frames", o.benchmark_frames,
@@ -98,6 +107,12 @@ int main(int argc, char** argv) {
       for (const std::string& name : overlays)
         if (name != "none" && !cvt::render::set_overlay(o.view.overlays, name, true))
           throw CLI::ValidationError("--overlay", "unknown overlay '" + name + "'");
+    }
+    for (const std::string& chord : o.press) {
+      int key;
+      bool ctrl, shift;
+      if (!parse_key_chord(chord, key, ctrl, shift))
+        throw CLI::ValidationError("--press", "unknown key '" + chord + "'");
     }
     if (!colour_by.empty()) {
       cvt::Measure m;

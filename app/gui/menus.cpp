@@ -7,24 +7,10 @@
 #include <cmath>
 #include <filesystem>
 
+#include "input_actions.h"
 #include "ui.h"
 
 namespace cvt::gui {
-namespace {
-
-void open_dialog(FileDialog& d, const std::string& suggestion) {
-  d.open = true;
-  if (d.folder.empty()) d.folder = std::filesystem::current_path().string();
-  if (d.path.empty()) d.path = suggestion;
-}
-
-void cycle_view(ViewSettings& v) {
-  v.mode = v.mode == ViewMode::split    ? ViewMode::view3d
-           : v.mode == ViewMode::view3d ? ViewMode::slice
-                                        : ViewMode::split;
-}
-
-}  // namespace
 
 void layout_panels(UiState& ui, float width, float height, float top_bar, float bottom_bar) {
   const float h = height - top_bar - bottom_bar;
@@ -34,31 +20,6 @@ void layout_panels(UiState& ui, float width, float height, float top_bar, float 
   ui.quality_panel = {x, top_bar, kRightPanelWidth, quality_h};
   ui.view_panel = ui.show_quality ? Rect{x, top_bar + quality_h, kRightPanelWidth, h - quality_h}
                                   : Rect{x, top_bar, kRightPanelWidth, h};
-}
-
-const std::vector<Shortcut>& shortcuts() {
-  static const std::vector<Shortcut> list{
-      {"Ctrl+O", "open an image"},
-      {"Ctrl+E", "export the mesh"},
-      {"Ctrl+P / Ctrl+S", "load / save a preset"},
-      {"F12", "screenshot"},
-      {"Ctrl+R", "run all stages"},
-      {"R", "re-run stale stages"},
-      {"N", "run the next stage"},
-      {"L / Shift+L / Ctrl+L", "Lloyd: 1 step / 10 steps / to convergence"},
-      {"Esc", "cancel the running job"},
-      {"Tab", "3D / slice / both"},
-      {"1 2 3", "sagittal / coronal / axial slice"},
-      {"Up Down, PgUp PgDn", "slice index by 1, by 10"},
-      {"F", "fit the views"},
-      {"C / Shift+C", "clip on/off / flip the clip side"},
-      {"F1 or H", "this help"},
-      {"F2", "hide / show the panels"},
-      {"Ctrl+Q", "quit"},
-      {"3D mouse", "left drag: orbit, right or Shift+left drag: pan, wheel: zoom"},
-      {"slice mouse", "left drag: pan, wheel: zoom, Ctrl+wheel: slice, right drag: window/level"},
-  };
-  return list;
 }
 
 void draw_menu_bar(UiContext& ctx) {
@@ -96,6 +57,9 @@ void draw_menu_bar(UiContext& ctx) {
     if (ImGui::MenuItem("Lloyd step", "L", false, can)) s.step_lloyd(1);
     if (ImGui::MenuItem("Lloyd 10 steps", "Shift+L", false, can)) s.step_lloyd(10);
     if (ImGui::MenuItem("Lloyd to convergence", "Ctrl+L", false, can)) s.step_lloyd(-1);
+    ImGui::Separator();
+    if (ImGui::MenuItem("Optimise one pass", "O", false, can)) s.step_optimization(1);
+    if (ImGui::MenuItem("Optimise to the end", "Shift+O", false, can)) s.step_optimization(-1);
     ImGui::MenuItem("Auto re-run", nullptr, &s.auto_rerun);
     if (ImGui::MenuItem("Cancel", "Esc", false, s.busy())) s.cancel();
     ImGui::EndMenu();
@@ -167,26 +131,6 @@ void draw_messages_window(UiContext& ctx) {
   ImGui::End();
 }
 
-bool show_window(UiState& ui, const std::string& name) {
-  if (name == "help")
-    ui.show_help = true;
-  else if (name == "messages")
-    ui.show_messages = true;
-  else if (name == "open")
-    open_dialog(ui.open_image, "");
-  else if (name == "export")
-    open_dialog(ui.export_mesh, "mesh.vtu");
-  else if (name == "load-preset")
-    open_dialog(ui.load_preset, "");
-  else if (name == "save-preset")
-    open_dialog(ui.save_preset, "preset.json");
-  else if (name == "screenshot")
-    open_dialog(ui.screenshot, "cvtmesh.png");
-  else
-    return false;
-  return true;
-}
-
 void draw_help_window(UiContext& ctx) {
   if (!ctx.ui.show_help) return;
   ImGui::SetNextWindowSize(ImVec2(720, 0), ImGuiCond_FirstUseEver);
@@ -198,12 +142,12 @@ void draw_help_window(UiContext& ctx) {
     if (ImGui::BeginTable("keys", 2, ImGuiTableFlags_RowBg)) {
       ImGui::TableSetupColumn("keys", ImGuiTableColumnFlags_WidthFixed, 190);
       ImGui::TableSetupColumn("action", ImGuiTableColumnFlags_WidthStretch);
-      for (const Shortcut& s : shortcuts()) {
+      for (const HelpLine& line : help_lines()) {
         ImGui::TableNextRow();
         ImGui::TableNextColumn();
-        ImGui::TextUnformatted(s.keys);
+        ImGui::TextUnformatted(line.keys.c_str());
         ImGui::TableNextColumn();
-        ImGui::TextWrapped("%s", s.action);
+        ImGui::TextWrapped("%s", line.action.c_str());
       }
       ImGui::EndTable();
     }
@@ -214,54 +158,9 @@ void draw_help_window(UiContext& ctx) {
 void handle_shortcuts(UiContext& ctx) {
   const ImGuiIO& io = ImGui::GetIO();
   if (io.WantTextInput) return;
-  Session& s = ctx.session;
-  ViewSettings& v = ctx.view;
-  UiState& ui = ctx.ui;
-  auto pressed = [](int key) { return ImGui::IsKeyPressed(key, false); };
-  auto repeat = [](int key) { return ImGui::IsKeyPressed(key, true); };
-  const bool ctrl = io.KeyCtrl, shift = io.KeyShift;
-  const bool can_run = !s.busy() && s.scene() && s.scene()->image;
-  if (ctrl) {
-    if (pressed(GLFW_KEY_O)) open_dialog(ui.open_image, "");
-    if (pressed(GLFW_KEY_E) && s.scene() && s.scene()->mesh)
-      open_dialog(ui.export_mesh, "mesh.vtu");
-    if (pressed(GLFW_KEY_P)) open_dialog(ui.load_preset, "");
-    if (pressed(GLFW_KEY_S)) open_dialog(ui.save_preset, "preset.json");
-    if (pressed(GLFW_KEY_R) && can_run) s.run_all();
-    if (pressed(GLFW_KEY_L) && can_run) s.step_lloyd(-1);
-    if (pressed(GLFW_KEY_Q)) ui.quit = true;
-    return;
-  }
-  if (pressed(GLFW_KEY_F12)) open_dialog(ui.screenshot, "cvtmesh.png");
-  if (pressed(GLFW_KEY_F1) || pressed(GLFW_KEY_H)) ui.show_help = !ui.show_help;
-  if (pressed(GLFW_KEY_F2)) {
-    const bool any = ui.show_pipeline || ui.show_quality || ui.show_view;
-    ui.show_pipeline = ui.show_quality = ui.show_view = !any;
-    ui.fit_slice = true;
-  }
-  if (pressed(GLFW_KEY_ESCAPE)) s.cancel();
-  if (pressed(GLFW_KEY_R) && can_run) s.rerun_stale();
-  if (pressed(GLFW_KEY_N) && can_run) s.run_next_stage();
-  if (pressed(GLFW_KEY_L) && can_run) s.step_lloyd(shift ? 10 : 1);
-  if (pressed(GLFW_KEY_TAB)) cycle_view(v), ui.fit_slice = true;
-  for (int a = 0; a < 3; ++a)
-    if (pressed(GLFW_KEY_1 + a)) v.slice_axis = a, v.slice_index = -1;
-  if (pressed(GLFW_KEY_F)) ui.fit_3d = ui.fit_slice = true;
-  if (pressed(GLFW_KEY_C)) {
-    if (shift)
-      v.clip_flip = !v.clip_flip;
-    else
-      v.clip_enabled = !v.clip_enabled;
-  }
-  if (s.scene() && s.scene()->image) {
-    const int n = s.scene()->image->grid().dims[v.slice_axis];
-    int step = 0;
-    if (repeat(GLFW_KEY_UP)) step = 1;
-    if (repeat(GLFW_KEY_DOWN)) step = -1;
-    if (repeat(GLFW_KEY_PAGE_UP)) step = 10;
-    if (repeat(GLFW_KEY_PAGE_DOWN)) step = -10;
-    if (step) v.slice_index = std::clamp(effective_slice_index(v, *s.scene()) + step, 0, n - 1);
-  }
+  for (const KeyBinding& b : key_bindings())
+    if (b.ctrl == io.KeyCtrl && b.shift == io.KeyShift && ImGui::IsKeyPressed(b.key, b.repeat))
+      perform(b.action, ctx.session, ctx.view, ctx.ui);
 }
 
 }  // namespace cvt::gui

@@ -2,6 +2,7 @@
 // options (surface, points, clip plane, colour by a quality measure).
 #include <imgui.h>
 
+#include "input_actions.h"
 #include "ui.h"
 
 namespace cvt::gui {

@@ -17,6 +17,7 @@
 #include <vector>
 
 #include "frame_stats.h"
+#include "input_actions.h"
 #include "screenshot.h"
 
 namespace cvt::gui {
@@ -86,18 +87,49 @@ class MouseControl {
   int target_ = 0;  // the view a drag started in: 0 none, 1 3D, 2 slice
 };
 
-// The runs a scripted start asks for (see ViewerOptions).
-void start_runs(Session& session, const ViewerOptions& options) {
-  if (options.optimize_passes != 0) {
-    if (options.run_all || options.run_through) session.run_through(Stage::shallow);
-    session.step_optimization(options.optimize_passes);
-    if (options.run_all) session.run_all();
-  } else if (options.run_all) {
-    session.run_all();
-  } else if (options.run_through) {
-    session.run_through(*options.run_through);
+// Scripted key presses go in as GLFW key events through the callback ImGui's GLFW backend
+// installed, the path a real key takes: the chord is pressed in one frame, released in the next.
+class ScriptedKeys {
+ public:
+  explicit ScriptedKeys(const std::vector<std::string>& chords) {
+    for (const std::string& c : chords) {
+      Chord k;
+      if (parse_key_chord(c, k.key, k.ctrl, k.shift)) chords_.push_back(k);
+    }
   }
-}
+  bool pending() const { return next_ < chords_.size() || down_; }
+  // Call once per frame before ImGui's new frame, when the previous action has finished.
+  void feed(GLFWwindow* window, bool ready) {
+    if (down_) {
+      release(window, held_);
+      down_ = false;
+      return;
+    }
+    if (!ready || next_ >= chords_.size()) return;
+    const Chord& k = chords_[next_++];
+    if (k.ctrl) ImGui_ImplGlfw_KeyCallback(window, GLFW_KEY_LEFT_CONTROL, 0, GLFW_PRESS, 0);
+    if (k.shift) ImGui_ImplGlfw_KeyCallback(window, GLFW_KEY_LEFT_SHIFT, 0, GLFW_PRESS, 0);
+    const int mods = (k.ctrl ? GLFW_MOD_CONTROL : 0) | (k.shift ? GLFW_MOD_SHIFT : 0);
+    ImGui_ImplGlfw_KeyCallback(window, k.key, 0, GLFW_PRESS, mods);
+    held_ = k;
+    down_ = true;
+  }
+
+ private:
+  struct Chord {
+    int key = 0;
+    bool ctrl = false, shift = false;
+  };
+  static void release(GLFWwindow* window, const Chord& k) {
+    ImGui_ImplGlfw_KeyCallback(window, k.key, 0, GLFW_RELEASE, 0);
+    if (k.shift) ImGui_ImplGlfw_KeyCallback(window, GLFW_KEY_LEFT_SHIFT, 0, GLFW_RELEASE, 0);
+    if (k.ctrl) ImGui_ImplGlfw_KeyCallback(window, GLFW_KEY_LEFT_CONTROL, 0, GLFW_RELEASE, 0);
+  }
+  std::vector<Chord> chords_;
+  std::size_t next_ = 0;
+  Chord held_;  // pressed in the last frame, while down_
+  bool down_ = false;
+};
 
 struct GlfwScope {
   GlfwScope() : ok(glfwInit() == GLFW_TRUE) {}
@@ -177,12 +209,19 @@ int run_viewer(const ViewerOptions& options) {
       std::fprintf(stderr, "cvtmesh-gui: %s\n", session.messages.back().text.c_str());
       exit_code = 1;
     }
-    if (!options.image.empty()) session.open_image(options.image);
-    if (!options.image.empty()) start_runs(session, options);
+    start_session(session, {options.image, options.run_all, options.run_through,
+                            options.optimize_passes});
+    // Scripted drops go through the drop callback GLFW calls.
+    if (!options.drop.empty()) {
+      std::vector<const char*> paths;
+      for (const std::string& p : options.drop) paths.push_back(p.c_str());
+      on_drop(window, int(paths.size()), paths.data());
+    }
+    ScriptedKeys keys(options.press);
 
     for (const std::string& name : options.show_windows) show_window(ui, name);
     std::optional<ScreenshotRequest> scripted_shot = options.screenshot;
-    int ready_frames = 0;
+    int ready_frames = 0, idle_frames = 0;
     BenchmarkRecorder bench(options.benchmark_frames);
     Rect last_area;
     while (renderer && exit_code == 0 && !glfwWindowShouldClose(window) && !ui.quit) {
@@ -197,9 +236,9 @@ int run_viewer(const ViewerOptions& options) {
       else
         glfwWaitEventsTimeout(session.busy() || scripted ? 1.0 / 30 : 0.5);
       const double work_start = now_s();
-      for (const std::string& path : dropped) session.open_image(path);
-      dropped.clear();
+      open_dropped(session, dropped);
       session.poll(now_s());
+      keys.feed(window, idle_frames >= 2);
       if (scripted && session.failed_jobs > 0) {
         std::fprintf(stderr, "cvtmesh-gui: %s\n", session.first_error.c_str());
         exit_code = 1;
@@ -213,7 +252,8 @@ int run_viewer(const ViewerOptions& options) {
       ImGui_ImplGlfw_NewFrame();
       ImGui::NewFrame();
       // The panels are pinned beside the views; scripted runs show the views alone.
-      const bool show_ui = !scripted || (options.screenshot && options.screenshot->include_ui);
+      const bool show_ui = !scripted || options.panels ||
+                           (options.screenshot && options.screenshot->include_ui);
       const float bar = show_ui ? ImGui::GetFrameHeight() : 0.0f;
       const float status = show_ui ? ImGui::GetFrameHeight() + 8 : 0.0f;
       layout_panels(ui, float(win_w), float(win_h), bar, status);
@@ -259,7 +299,9 @@ int run_viewer(const ViewerOptions& options) {
         ui.screenshot_request.reset();
       }
       // Scripted: once every job is done and the legends had two frames to size themselves.
-      const bool done = was_idle && !session.busy() && !renderer->busy();
+      const bool idle = was_idle && !session.busy() && !renderer->busy();
+      idle_frames = idle ? idle_frames + 1 : 0;
+      const bool done = idle && !keys.pending();
       if (done)
         ++ready_frames;
       else
@@ -289,6 +331,18 @@ int run_viewer(const ViewerOptions& options) {
       } else if (scripted && ready_frames > 3 && !scripted_shot) {
         break;
       }
+    }
+    // Scripted runs that optimised say what stage 6 did (the quality panel's figures).
+    if (scripted && exit_code == 0 && session.scene() && session.scene()->unoptimized &&
+        session.scene()->mesh && session.scene()->optimization) {
+      const render::SceneData& sc = *session.scene();
+      const render::MeshFigures before = render::mesh_figures(sc.unoptimized->measures);
+      const render::MeshFigures after = render::mesh_figures(sc.mesh->measures);
+      std::printf(
+          "stage 6: %d passes, tets %zu -> %zu, min dihedral %.2f -> %.2f deg, tets below 10 "
+          "deg %zu -> %zu\n",
+          int(sc.optimization->history.size()) - 1, before.tets, after.tets,
+          before.min_dihedral_deg, after.min_dihedral_deg, before.below_10, after.below_10);
     }
     if (options.benchmark_frames) {
       std::printf("window %dx%d, %s\n", options.width, options.height,

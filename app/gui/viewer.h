@@ -23,10 +23,13 @@ struct ViewerOptions {
   std::optional<ScreenshotRequest> screenshot;  // taken once every job is done
   bool exit_when_done = false;                  // quit after the jobs (and screenshot)
   int benchmark_frames = 0;                     // time this many frames once done, print stats
+  bool panels = false;                          // draw the panels in scripted runs too
   int width = 1280, height = 800;               // window size (screen units)
   ViewSettings view;                            // initial view
   int max_threads = 0;                          // worker TBB threads (0 = all cores)
   std::vector<std::string> show_windows;        // windows/dialogs open at start (show_window)
+  std::vector<std::string> drop;   // paths dropped on the window at start (scripted)
+  std::vector<std::string> press;  // key chords pressed once each job is done (scripted)
 };
 
 // Runs the window until it is closed (or the scripted run ends). Returns the exit code: 0, or 1
