@@ -1,5 +1,5 @@
-// Separable exact EDT with feature transform. Pass i is a two-sided scan for the nearest feature
-// in each row; passes j and k take, for every line, the lower envelope of the parabolas
+// Separable exact EDT with feature transform. Pass i finds the nearest feature in each row, run
+// by run; passes j and k take, for every line, the lower envelope of the parabolas
 // f(q) + ((p − q)·spacing)² (Felzenszwalb & Huttenlocher 2012 — the same partial Voronoi
 // diagrams as Maurer et al. 2003), carrying along the feature index of each parabola.
 //
@@ -15,6 +15,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cstdint>
 #include <cstring>
 #include <limits>
 #include <string>
