@@ -20,7 +20,7 @@ struct FeatureTransform {
 FeatureTransform compute_feature_transform(const Mask& features, bool compute_nearest = true);
 
 // The same into `out`, reusing its volumes' memory when it is large enough: repeated transforms
-// then skip allocating and first-touching 4–8 bytes per voxel, which costs as much as a pass.
+// then skip allocating and first-touching 4–8 bytes per voxel (page faults, kernel zeroing).
 // Whatever `out` held before is overwritten; compute_nearest=false empties out.nearest.data.
 void compute_feature_transform(const Mask& features, FeatureTransform& out,
                                bool compute_nearest = true);
