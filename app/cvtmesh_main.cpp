@@ -5,6 +5,7 @@
 
 #include "commands.h"
 #include "errors.h"
+#include "signal_cancel.h"
 
 int main(int argc, char** argv) {
   CLI::App app{"cvtmesh: CVT-based Delaunay tetrahedral meshes from 3D medical images"};
@@ -17,6 +18,7 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   } catch (const cvt::Cancelled&) {
+    cvt::cli::claim_interrupt_exit();  // the watchdog must not print it a second time
     std::cerr << "cvtmesh: cancelled; nothing was written\n";
     return 130;
   } catch (const cvt::InputError& e) {

@@ -1,4 +1,5 @@
 // `cvtmesh info IMAGE [--json]`: geometry, value range and label histogram of an image.
+#include <cmath>
 #include <iomanip>
 #include <iostream>
 #include <memory>
@@ -17,6 +18,13 @@ struct InfoArgs {
   std::vector<double> slice_spacing;
 };
 
+// NaN/Inf voxels (grey images from some tools): reported apart, `mesh` refuses them.
+std::size_t non_finite_count(const Image& img) {
+  std::size_t n = 0;
+  for (float v : img.voxels.data) n += !std::isfinite(v);
+  return n;
+}
+
 nlohmann::json info_json(const Image& img) {
   const Grid& g = img.grid();
   const ValueRange range = value_range(img);
@@ -29,6 +37,7 @@ nlohmann::json info_json(const Image& img) {
   j["pixel_type"] = img.pixel_type;
   j["integer_valued"] = img.integer_valued;
   j["range"] = {range.min, range.max};
+  j["non_finite"] = non_finite_count(img);
   nlohmann::json hist = nlohmann::json::array();
   for (auto [label, count] : label_histogram(img)) hist.push_back({{"label", label}, {"count", count}});
   j["labels"] = hist;
@@ -49,6 +58,8 @@ void print_text(const Image& img) {
               << g.direction[3 * r + 2];
   std::cout << "\npixel type: " << img.pixel_type << (img.integer_valued ? " (labels)" : " (grey)")
             << "\nrange:      " << range.min << " .. " << range.max << "\n";
+  if (const std::size_t n = non_finite_count(img))
+    std::cout << "non-finite: " << n << (n == 1 ? " voxel" : " voxels") << " (NaN or Inf)\n";
   if (img.integer_valued) {
     std::cout << "labels:     label  voxels\n";
     for (auto [label, count] : label_histogram(img))

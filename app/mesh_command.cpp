@@ -1,8 +1,13 @@
 // `cvtmesh mesh IMAGE -o OUT ...`: the whole pipeline, a progress line per stage on stderr,
 // the mesh in the format of OUT's extension, optionally a JSON run report and the preset used.
+#include <fcntl.h>
+#include <unistd.h>
+
 #include <algorithm>
 #include <cctype>
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <filesystem>
 #include <iostream>
 #include <memory>
@@ -30,7 +35,29 @@ struct MeshArgs {
   std::unique_ptr<ParameterOptions> parameters;
 };
 
-// Fails early, before any work, when OUT cannot be written: unknown extension or no folder.
+// Fails early, before any work, when an output cannot be written: no folder, a folder in the
+// way, or a folder that refuses new files (probed with an empty temp file, removed at once).
+void ensure_writable_path(const std::string& path) {
+  namespace fs = std::filesystem;
+  const fs::path target(path);
+  const fs::path dir = target.parent_path().empty() ? fs::path(".") : target.parent_path();
+  std::error_code ec;
+  if (!fs::is_directory(dir, ec))
+    throw InputError("cannot write " + path + ": " +
+                     (fs::exists(dir, ec) ? dir.string() + " is not a folder"
+                                          : "folder " + dir.string() + " does not exist"));
+  if (fs::is_directory(target, ec)) throw InputError("cannot write " + path + ": is a folder");
+  const fs::path probe =
+      dir / ("." + target.filename().string() + ".probe" + std::to_string(::getpid()));
+  const int fd = ::open(probe.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0600);
+  if (fd < 0)
+    throw InputError("cannot write " + path + ": cannot create files in folder " + dir.string() +
+                     " (" + std::strerror(errno) + ")");
+  ::close(fd);
+  ::unlink(probe.c_str());
+}
+
+// The mesh output also needs a known extension.
 void ensure_writable_mesh_path(const std::string& path) {
   namespace fs = std::filesystem;
   std::string ext = fs::path(path).extension().string();
@@ -41,9 +68,22 @@ void ensure_writable_mesh_path(const std::string& path) {
     for (const std::string& e : known) list += (list.empty() ? "" : " ") + e;
     throw InputError(path + ": unsupported mesh format '" + ext + "' (supported: " + list + ")");
   }
-  const fs::path dir = fs::path(path).parent_path();
-  if (!dir.empty() && !fs::is_directory(dir))
-    throw InputError("cannot write " + path + ": folder " + dir.string() + " does not exist");
+  if (ext == ".node" || ext == ".ele") {  // TetGen: both files are written
+    ensure_writable_path(fs::path(path).replace_extension(".node").string());
+    ensure_writable_path(fs::path(path).replace_extension(".ele").string());
+  } else {
+    ensure_writable_path(path);
+  }
+}
+
+// The files a mesh output consists of (TetGen writes two).
+std::vector<std::string> mesh_files(const std::string& path) {
+  namespace fs = std::filesystem;
+  std::string ext = fs::path(path).extension().string();
+  for (char& c : ext) c = char(std::tolower(static_cast<unsigned char>(c)));
+  if (ext != ".node" && ext != ".ele") return {path};
+  return {fs::path(path).replace_extension(".node").string(),
+          fs::path(path).replace_extension(".ele").string()};
 }
 
 // Quality measures as cell data, so a .vtu can be coloured by them in ParaView.
@@ -56,14 +96,16 @@ MeshWriteOptions write_options(const TetMesh& mesh) {
 }
 
 void run(const MeshArgs& args) {
+  Progress progress;
+  progress.cancel = install_interrupt_cancel();
   const Parameters parameters = args.parameters->resolve();
-  // Check the output path before hours of work: the extension and the folder.
+  // Check the outputs before hours of work: the extension and the folders.
   ensure_writable_mesh_path(args.output);
+  if (!args.report.empty()) ensure_writable_path(args.report);
+  if (!args.save_preset.empty()) ensure_writable_path(args.save_preset);
   const int threads = parameters.threads > 0 ? parameters.threads : tbb::info::default_concurrency();
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
 
-  Progress progress;
-  progress.cancel = install_interrupt_cancel();
   std::string last_step;
   if (!args.quiet)
     progress.report = [&](const std::string& step, double) {
@@ -76,9 +118,29 @@ void run(const MeshArgs& args) {
   pipe.run_all(progress);
 
   const MeshGenerationResult& m = *pipe.mesh();
-  write_mesh(m.mesh, args.output, write_options(m.mesh));
-  if (!args.report.empty()) write_file_atomically(args.report, run_report(pipe).dump(2) + "\n");
-  if (!args.save_preset.empty()) save_preset(parameters, args.save_preset);
+  // All outputs or none: a report or preset that fails after the mesh was written takes the
+  // mesh with it, so a failed run never looks like a finished one; so does a cancel during
+  // the last stage or the writing.
+  const WritingOutputs writing;
+  progress.check_cancelled();
+  std::vector<std::string> written;
+  try {
+    write_mesh(m.mesh, args.output, write_options(m.mesh));
+    written = mesh_files(args.output);
+    if (!args.report.empty()) {
+      write_file_atomically(args.report, run_report(pipe).dump(2) + "\n");
+      written.push_back(args.report);
+    }
+    if (!args.save_preset.empty()) {
+      save_preset(parameters, args.save_preset);
+      written.push_back(args.save_preset);
+    }
+    progress.check_cancelled();
+  } catch (...) {
+    std::error_code ec;
+    for (const std::string& f : written) std::filesystem::remove(f, ec);
+    throw;
+  }
   if (!args.quiet) {
     double total = 0;
     for (const StageRecord& r : pipe.records()) total += r.wall_s;

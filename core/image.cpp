@@ -6,10 +6,12 @@
 namespace cvt {
 
 ValueRange value_range(const Image& image) {
-  const auto& d = image.voxels.data;
-  if (d.empty()) return {};
-  auto [lo, hi] = std::minmax_element(d.begin(), d.end());
-  return {*lo, *hi};
+  // NaN/Inf voxels are skipped: with them, minmax_element's answer depends on where they are.
+  float lo = INFINITY, hi = -INFINITY;
+  for (float v : image.voxels.data)
+    if (std::isfinite(v)) lo = std::min(lo, v), hi = std::max(hi, v);
+  if (lo > hi) return {};
+  return {lo, hi};
 }
 
 std::map<std::int64_t, std::size_t> label_histogram(const Image& image) {

@@ -21,6 +21,7 @@ struct Image {
 struct ValueRange {
   double min = 0, max = 0;
 };
+// Of the finite voxels ({0, 0} when there are none).
 ValueRange value_range(const Image& image);
 
 // Voxel count per integer label (only for integer-valued images).

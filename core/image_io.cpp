@@ -14,6 +14,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
+#include <iostream>
 #include <memory>
 #include <sstream>
 #include <system_error>
@@ -200,6 +201,20 @@ void replace_all(std::string& text, const std::string& from, const std::string& 
     text.replace(pos, from.size(), to);
 }
 
+// MetaIO prints multi-line complaints on std::cerr before it fails (e.g. a NaN spacing); the
+// InputError says what the user needs, so that text is held back while a file is read.
+class HoldBackCerr {
+ public:
+  HoldBackCerr() : saved_(std::cerr.rdbuf(held_.rdbuf())) {}
+  ~HoldBackCerr() { std::cerr.rdbuf(saved_); }
+  HoldBackCerr(const HoldBackCerr&) = delete;
+  HoldBackCerr& operator=(const HoldBackCerr&) = delete;
+
+ private:
+  std::ostringstream held_;
+  std::streambuf* saved_;
+};
+
 }  // namespace
 
 std::string image_extension(const std::string& path) {
@@ -220,6 +235,7 @@ Image read_image(const std::string& path, const ReadOptions& options) {
   const fs::file_status status = fs::status(path, ec);
   if (ec || !fs::exists(status)) throw InputError(path + ": no such file");
   Image image;
+  const HoldBackCerr quiet;
   if (fs::is_directory(status)) {
     // A folder: slices when it holds any (a DICOM folder rarely has .png/.tif files in it).
     image = folder_has_slices(path) ? read_slice_folder(path, options)
@@ -238,6 +254,16 @@ Image read_image(const std::string& path, const ReadOptions& options) {
     }
   }
   if (image.voxels.grid.voxel_count() == 0) throw InputError(path + ": image is empty (0 voxels)");
+  // Some headers parse NaN or 0 as a spacing; every later stage divides by it.
+  const Grid& g = image.voxels.grid;
+  for (int a = 0; a < 3; ++a)
+    if (!(std::isfinite(g.spacing[a]) && g.spacing[a] > 0))
+      throw InputError(path + ": voxel spacing " + std::to_string(g.spacing[a]) + " along axis " +
+                       std::to_string(a) + " (must be a positive number)");
+  bool finite_frame = true;
+  for (int a = 0; a < 3; ++a) finite_frame = finite_frame && std::isfinite(g.origin[a]);
+  for (double d : g.direction) finite_frame = finite_frame && std::isfinite(d);
+  if (!finite_frame) throw InputError(path + ": origin or direction is not finite");
   image.source = path;
   return image;
 }

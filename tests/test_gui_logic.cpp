@@ -721,3 +721,73 @@ TEST(Inputs, KeyBindingsMatchTheHelpAndDoWhatItSays) {
   press(GLFW_KEY_Q, true);
   EXPECT_TRUE(ui.quit);
 }
+
+TEST(Session, CancelStopsLloydWithinASecondAndKeepsTheStateBefore) {
+  Session s;
+  s.edited.epsilon_mm = 1e-12;  // never converges: only the cancel ends the run below
+  s.edited.max_iterations = 100000;
+  s.open_image(torus_file());
+  s.run_through(Stage::surface);
+  s.step_lloyd(2);
+  settle(s);
+  ASSERT_EQ(s.failed_jobs, 0u) << s.first_error;
+  const auto surface = s.scene()->surface_samples;
+  ASSERT_NE(surface, nullptr);
+  const std::size_t sites = s.lloyd()->sites_world.size();
+
+  s.step_lloyd(-1);
+  // Cancel while it iterates (a live state past the two earlier iterations has been posted).
+  while (!s.lloyd() || s.lloyd()->history.size() < 5) {
+    s.poll(0);
+    std::this_thread::sleep_for(std::chrono::milliseconds(2));
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  s.cancel();
+  s.wait_idle();
+  const std::chrono::duration<double> took = std::chrono::steady_clock::now() - t0;
+  EXPECT_LT(took.count(), 1.0);
+  s.poll(0);
+  EXPECT_EQ(s.failed_jobs, 0u);
+  EXPECT_NE(s.messages.back().text.find("cancelled"), std::string::npos);
+  // Earlier stages untouched; the sites are those of the last whole iteration, still usable.
+  ASSERT_NE(s.scene(), nullptr);
+  EXPECT_EQ(s.scene()->surface_samples, surface);
+  ASSERT_NE(s.lloyd(), nullptr);
+  EXPECT_GE(s.lloyd()->history.size(), 5u);
+  EXPECT_EQ(s.lloyd()->sites_world.size(), sites);
+  EXPECT_EQ(s.stage_states()[int(Stage::surface)], StageState::done);
+  // And the next run carries on from there.
+  s.step_lloyd(1);
+  settle(s);
+  EXPECT_EQ(s.failed_jobs, 0u) << s.first_error;
+}
+
+TEST(Session, ABadPresetLeavesTheParametersAsTheyWere) {
+  Session s;
+  s.edited.r = 0.33;
+  s.edited.seed = 7;
+  const Parameters before = s.edited;
+  const auto dir = temp_dir("bad_presets");
+  const std::pair<const char*, const char*> cases[] = {
+      {R"({"r": -0.5})", "r"},
+      {R"({"sigma_surface_mm": 0})", "sigma_surface_mm"},
+      {R"({"epsilon_mm": -1})", "epsilon_mm"},
+      {R"({"r": 0.2, "max_iterations": -5})", "max_iterations"},  // the valid r is not taken
+      {R"({"seed": "x"})", "seed"},
+      {R"({"radius": 1})", "radius"},
+      {R"({"r": 0.2,)", "JSON"},
+  };
+  int i = 0;
+  for (const auto& [text, key] : cases) {
+    const std::string path = (dir / ("p" + std::to_string(i++) + ".json")).string();
+    std::ofstream(path) << text;
+    EXPECT_FALSE(s.load_preset(path)) << text;
+    EXPECT_EQ(s.edited, before) << text;
+    ASSERT_FALSE(s.messages.empty());
+    EXPECT_TRUE(s.messages.back().error);
+    EXPECT_NE(s.messages.back().text.find(path), std::string::npos) << s.messages.back().text;
+    EXPECT_NE(s.messages.back().text.find(key), std::string::npos) << s.messages.back().text;
+    EXPECT_EQ(s.messages.back().text.find('\n'), std::string::npos);
+  }
+  std::filesystem::remove_all(dir);
+}
