@@ -7,8 +7,11 @@
 #include <itkImageFileWriter.h>
 #include <itkImageIOFactory.h>
 #include <itkImageSeriesReader.h>
+#include <itkMetaImageIO.h>
 #include <itkMetaImageIOFactory.h>
+#include <itkNiftiImageIO.h>
 #include <itkNiftiImageIOFactory.h>
+#include <itkNrrdImageIO.h>
 #include <itkNrrdImageIOFactory.h>
 #include <zlib.h>
 
@@ -164,29 +167,61 @@ void require_complete_nifti(const std::string& path, std::size_t data_bytes) {
   if (vox_offset >= 0) require_complete_file(path, std::size_t(vox_offset) + data_bytes);
 }
 
+// MetaIO parses its header into fixed buffers: a field name of 255 characters or more, or a
+// value that long (Name, Comment), overflows them, and NDims sizes arrays of 10 dimensions and
+// 4096 values. A header line without '=' or ':' can make it read on into the voxel data as
+// header. All of these are refused before MetaIO sees the file.
+void require_sane_metaimage_header(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  for (int number = 1; std::getline(in, line); ++number) {
+    const auto fail = [&](const std::string& why) {
+      throw InputError(path + ": bad MetaImage header line " + std::to_string(number) + " (" +
+                       why + ")");
+    };
+    if (line.size() >= 255) fail("longer than 254 characters");
+    const std::size_t begin = line.find_first_not_of(" \t\r\v\f");
+    if (begin == std::string::npos) continue;
+    const std::size_t separator = line.find_first_of("=:", begin);
+    if (separator == std::string::npos) fail("no '=' after the field name");
+    std::string key = line.substr(begin, separator - begin);
+    key.erase(key.find_last_not_of(" \t") + 1);
+    if (key == "ElementDataFile") return;  // the voxel data follows
+    if (key == "NDims") {
+      char* end = nullptr;
+      const double ndims = std::strtod(line.c_str() + separator + 1, &end);
+      if (!(ndims >= 1 && ndims <= 10) || ndims != std::floor(ndims))
+        fail("NDims must be a whole number from 1 to 10");
+    }
+  }
+}
+
 // MetaIO likewise only prints "data not read completely": check the data size ourselves
-// (compressed data against CompressedDataSize, raw data against the voxel count).
+// (compressed data against CompressedDataSize, raw data against the voxel count). Without
+// CompressedDataSize MetaIO sizes its buffer from the stream, which can be -1 bytes.
 void require_complete_metaimage(const std::string& path, std::size_t data_bytes) {
   std::ifstream in(path, std::ios::binary);
   std::string line, data_file;
   bool compressed = false;
-  std::size_t compressed_size = 0;
+  double compressed_size = 0;
   auto trim = [](std::string t) {
     const auto b = t.find_first_not_of(" \t\r"), e = t.find_last_not_of(" \t\r");
     return b == std::string::npos ? std::string() : t.substr(b, e - b + 1);
   };
   while (data_file.empty() && std::getline(in, line)) {
-    const std::size_t eq = line.find('=');
+    const std::size_t eq = line.find_first_of("=:");  // MetaIO's two separators
     if (eq == std::string::npos) continue;
     const std::string key = trim(line.substr(0, eq)), value = trim(line.substr(eq + 1));
-    if (key == "CompressedData") compressed = value == "True" || value == "true" || value == "1";
-    if (key == "CompressedDataSize") compressed_size = std::strtoull(value.c_str(), nullptr, 10);
+    // MetaIO looks at the first character only.
+    if (key == "CompressedData") compressed = !value.empty() && std::strchr("Tt1", value[0]);
+    if (key == "CompressedDataSize") compressed_size = std::strtod(value.c_str(), nullptr);
     if (key == "ElementDataFile") data_file = value;
   }
-  const std::size_t needed = compressed ? compressed_size : data_bytes;
+  if (compressed && !(compressed_size >= 1 && compressed_size <= 1e18))
+    throw InputError(path + ": compressed MetaImage without a valid CompressedDataSize");
+  const std::size_t needed = compressed ? std::size_t(compressed_size) : data_bytes;
   // Lists and numbered file patterns are left to MetaIO.
-  if (data_file.empty() || needed == 0 || data_file == "LIST" ||
-      data_file.find_first_of("% ") != std::string::npos)
+  if (data_file.empty() || data_file == "LIST" || data_file.find('%') != std::string::npos)
     return;
   std::error_code ec;
   std::size_t have = 0;
@@ -305,15 +340,24 @@ void write_as(const Image& image, const std::string& path) {
 
 Image read_image_itk(const std::string& path, const ReadOptions& options) {
   register_itk_factories();
-  itk::ImageIOBase::Pointer io =
-      itk::ImageIOFactory::CreateImageIO(path.c_str(), itk::IOFileModeEnum::ReadMode);
-  if (!io) {
-    throw InputError(path + ": not a valid ." + image_extension(path) +
-                     " file (cannot read its header)");
-  }
-  io->SetFileName(path);
   const std::string ext = image_extension(path);
   if (ext == "nii" || ext == "nii.gz") require_finite_nifti_geometry(path);
+  if (ext == "mha" || ext == "mhd") require_sane_metaimage_header(path);
+  // The reader named by the extension only: ITK's factory would hand a file its own reader
+  // refuses to the next one that accepts it, GDCM included, which then parses a damaged
+  // .mha as DICOM.
+  itk::ImageIOBase::Pointer io;
+  if (ext == "nii" || ext == "nii.gz") io = itk::NiftiImageIO::New();
+  if (ext == "nrrd" || ext == "nhdr") io = itk::NrrdImageIO::New();
+  if (ext == "mha" || ext == "mhd") io = itk::MetaImageIO::New();
+  bool readable = false;
+  try {
+    readable = io && io->CanReadFile(path.c_str());
+  } catch (const itk::ExceptionObject&) {
+  }
+  if (!readable)
+    throw InputError(path + ": not a valid ." + ext + " file (cannot read its header)");
+  io->SetFileName(path);
   try {
     io->ReadImageInformation();
   } catch (const itk::ExceptionObject& e) {

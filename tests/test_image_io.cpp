@@ -396,3 +396,50 @@ TEST(ImageIO, BadInputs) {
   expect_input_error([&] { cvt::write_image(overflow, dir / "o.nii"); }, dir / "o.nii", "uint8");
   EXPECT_FALSE(fs::exists(dir / "o.nii"));
 }
+
+// Headers that crashed or aborted inside ITK before cvtmesh refused them (found by the fuzz
+// targets, tests/fuzz; their inputs replay in tests/fuzz/regressions).
+TEST(ImageIO, CorruptHeadersFoundByFuzzing) {
+  TempDir dir;
+  auto read = [](const std::string& p) { return [p] { cvt::read_image(p); }; };
+  // NIfTI-1: a float field patched at its byte offset (ITK writes little-endian here).
+  auto patched_nifti = [&](const std::string& name, std::size_t offset, float value) {
+    cvt::write_image(make_image("uint8", false), dir / name);
+    std::fstream f(dir / name, std::ios::in | std::ios::out | std::ios::binary);
+    f.seekp(std::streamoff(offset));
+    f.write(reinterpret_cast<const char*>(&value), sizeof value);
+    return dir / name;
+  };
+  // A NaN in the sform made vnl_svd abort the process.
+  const std::string nan_srow = patched_nifti("nan_srow.nii", 280, std::nanf(""));
+  expect_input_error(read(nan_srow), nan_srow, "corrupt NIfTI header (srow");
+  const std::string inf_pixdim = patched_nifti("inf_pixdim.nii", 80, INFINITY);
+  expect_input_error(read(inf_pixdim), inf_pixdim, "corrupt NIfTI header (pixdim");
+  // A vox_offset beyond any size was converted to size_t (undefined behaviour).
+  const std::string far_data = patched_nifti("far_data.nii", 108, 1e30f);
+  expect_input_error(read(far_data), far_data, "vox_offset");
+
+  // MetaImage: MetaIO's fixed buffers, and a buffer sized from a failed stream.
+  auto mha = [&](const std::string& name, const std::string& ndims, const std::string& extra) {
+    write_bytes(dir / name, "ObjectType = Image\nNDims = " + ndims +
+                                "\nDimSize = 2 2 2\nElementType = MET_UCHAR\n" + extra +
+                                "ElementDataFile = LOCAL\n" + std::string(8, '\1'));
+    return dir / name;
+  };
+  const std::string fine = mha("fine.mha", "3", "");
+  EXPECT_EQ(cvt::read_image(fine).voxels.data, std::vector<float>(8, 1.0f));
+  const std::string long_name = mha("long_name.mha", "3", std::string(300, 'A') + " = 1\n");
+  expect_input_error(read(long_name), long_name, "header line 5");
+  const std::string many_dims = mha("many_dims.mha", "100000", "");
+  expect_input_error(read(many_dims), many_dims, "NDims");
+  const std::string no_size = mha("no_size.mha", "3", "CompressedData = True\n");
+  expect_input_error(read(no_size), no_size, "CompressedDataSize");
+  const std::string bad_type = dir / "bad_type.mha";
+  write_bytes(bad_type, "ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\n"
+                        "ElementType = MET_BOGUS\nElementDataFile = LOCAL\n" + std::string(8, '\1'));
+  expect_input_error(read(bad_type), bad_type, "pixel type");
+  // Only the reader the extension names: an NRRD file called .mha is not a MetaImage.
+  cvt::write_image(make_image("uint8", false), dir / "really.nrrd");
+  fs::rename(dir / "really.nrrd", dir / "really.mha");
+  expect_input_error(read(dir / "really.mha"), dir / "really.mha", "MetaImage header");
+}
