@@ -5,7 +5,12 @@
 // through the functions the window calls. No window (GLFW's header for its key codes only).
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
 #include <atomic>
+#include <cerrno>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -790,4 +795,18 @@ TEST(Session, ABadPresetLeavesTheParametersAsTheyWere) {
     EXPECT_EQ(s.messages.back().text.find('\n'), std::string::npos);
   }
   std::filesystem::remove_all(dir);
+}
+
+TEST(PipelineWorker, RunsTenNiceLevelsBelowTheThreadThatMadeIt) {
+  const auto nice_of_this_thread = [] {
+    errno = 0;
+    const int n = getpriority(PRIO_PROCESS, pid_t(syscall(SYS_gettid)));
+    return errno ? 0 : n;
+  };
+  const int ui = nice_of_this_thread();
+  PipelineWorker worker(1);
+  std::atomic<int> job_nice{-100};
+  worker.submit("nice", [&](JobContext&) { job_nice = nice_of_this_thread(); });
+  worker.wait_idle();
+  EXPECT_EQ(job_nice.load(), std::min(ui + 10, 19));
 }

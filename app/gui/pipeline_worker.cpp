@@ -7,25 +7,40 @@
 #include <tbb/task_scheduler_observer.h>
 #include <unistd.h>
 
+#include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <new>
 
 namespace cvt::gui {
 namespace {
 
-// Lowers the priority of the calling thread only (Linux nice values are per thread).
-void lower_thread_priority() {
-  setpriority(PRIO_PROCESS, pid_t(syscall(SYS_gettid)), 10);
+pid_t thread_id() { return pid_t(syscall(SYS_gettid)); }
+
+// The worker's nice value: 10 below the thread that made the worker (the UI thread), so the
+// pipeline yields to the UI whatever the process was started with (nice -n -15 for a
+// benchmark on a shared machine keeps the pipeline at -5, not below every other process).
+int worker_nice() {
+  errno = 0;
+  const int ui = getpriority(PRIO_PROCESS, thread_id());
+  return std::min((errno ? 0 : ui) + 10, 19);
 }
+
+// Sets the nice value of the calling thread only (Linux nice values are per thread).
+void lower_thread_priority(int nice) { setpriority(PRIO_PROCESS, thread_id(), nice); }
 
 // Lowers every TBB thread that joins the worker's arena, so pipeline work yields to the UI.
 class NiceObserver : public tbb::task_scheduler_observer {
  public:
-  explicit NiceObserver(tbb::task_arena& arena) : tbb::task_scheduler_observer(arena) {
+  NiceObserver(tbb::task_arena& arena, int nice)
+      : tbb::task_scheduler_observer(arena), nice_(nice) {
     observe(true);
   }
   ~NiceObserver() override { observe(false); }
-  void on_scheduler_entry(bool) override { lower_thread_priority(); }
+  void on_scheduler_entry(bool) override { lower_thread_priority(nice_); }
+
+ private:
+  int nice_;
 };
 
 // The first line of an exception message (the UI shows one line per error).
@@ -37,7 +52,7 @@ std::string one_line(const std::string& text) {
 }  // namespace
 
 PipelineWorker::PipelineWorker(int max_threads)
-    : max_threads_(max_threads), thread_([this] { thread_main(); }) {}
+    : max_threads_(max_threads), nice_(worker_nice()), thread_([this] { thread_main(); }) {}
 
 PipelineWorker::~PipelineWorker() {
   {
@@ -106,7 +121,7 @@ void PipelineWorker::wait_idle() {
 }
 
 void PipelineWorker::thread_main() {
-  lower_thread_priority();
+  lower_thread_priority(nice_);
   for (;;) {
     std::pair<std::string, Job> next;
     {
@@ -158,7 +173,7 @@ void PipelineWorker::run_job(const std::string& name, const Job& job) {
                       : max_threads_ > 0                 ? max_threads_
                                                          : tbb::info::default_concurrency();
   tbb::task_arena arena(threads);
-  NiceObserver nice(arena);
+  NiceObserver nice(arena, nice_);
   arena.execute([&] {
     try {
       JobContext context{pipeline_, image_, progress};

@@ -51,7 +51,8 @@ struct WorkerStatus {
 class PipelineWorker {
  public:
   // max_threads: TBB threads a job may use (0 = all cores). The worker's threads run at a lower
-  // priority (nice) so the UI thread and the GL driver stay responsive.
+  // priority (nice + 10 relative to the calling thread) so the UI thread and the GL driver stay
+  // responsive.
   explicit PipelineWorker(int max_threads = 0);
   ~PipelineWorker();  // cancels, drops queued jobs, joins
   PipelineWorker(const PipelineWorker&) = delete;
@@ -74,6 +75,7 @@ class PipelineWorker {
   void run_job(const std::string& name, const Job& job);
 
   int max_threads_;
+  int nice_;  // of the worker's threads
   mutable std::mutex mutex_;
   std::condition_variable wake_, idle_;
   std::deque<std::pair<std::string, Job>> queue_;
