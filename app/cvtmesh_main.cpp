@@ -15,8 +15,14 @@ int main(int argc, char** argv) {
   cvt::cli::add_quality_command(app);
   try {
     app.parse(argc, argv);
-  } catch (const CLI::ParseError& e) {
+  } catch (const CLI::CallForHelp& e) {
     return app.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return app.exit(e);
+  } catch (const CLI::ParseError& e) {
+    // One line, like every other error (CLI11's own output adds a second).
+    std::cerr << "cvtmesh: " << e.what() << " (run with --help for more information)\n";
+    return e.get_exit_code();
   } catch (const cvt::Cancelled&) {
     cvt::cli::claim_interrupt_exit();  // the watchdog must not print it a second time
     std::cerr << "cvtmesh: cancelled; nothing was written\n";

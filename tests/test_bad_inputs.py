@@ -467,6 +467,32 @@ class Presets(unittest.TestCase):
         self.assertEqual(os.listdir(out), [])
 
 
+class CommandLine(unittest.TestCase):
+    """Bad options: one line naming the option or parameter, before any work."""
+
+    def test_bad_options(self):
+        with tempfile.TemporaryDirectory() as out:
+            mesh = [CVTMESH, "mesh", TORUS, "-o", os.path.join(out, "t.vtu")]
+            cases = [
+                (mesh + ["--r", "abc"], "--r"),
+                (mesh + ["--r", "-0.5"], "r: must be in (0, 1)"),
+                (mesh + ["--sigma-surface", "0"], "sigma_surface_mm: must be > 0"),
+                (mesh + ["--epsilon", "-1"], "epsilon_mm: must be >= 0"),
+                (mesh + ["--max-iterations", "-1"], "max_iterations"),
+                (mesh + ["--bogus", "1"], "--bogus"),
+                (mesh + ["--optimize", "fast"], "--optimize"),
+                ([CVTMESH, "mesh", TORUS], "--output"),
+                ([CVTMESH, "info"], "IMAGE"),
+                ([CVTMESH, "frobnicate"], "subcommand"),
+            ]
+            for cmd, say in cases:
+                with self.subTest(" ".join(cmd[1:])):
+                    r = run(cmd)
+                    Corpus.assert_refused(self, r, say)
+                    self.assertTrue(r.stderr.startswith("cvtmesh: "), r.stderr)
+                    self.assertEqual(os.listdir(out), [])
+
+
 # ---- helpers that need the module's names -----------------------------------------------------
 
 
