@@ -35,6 +35,17 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 // (TLB) miss of each strided k row, while a 32 × 1000 tile of values + indices stays in L2.
 constexpr int kTileWidth = 32;
 
+// The envelope code is compiled twice on x86-64 GCC: for the baseline (SSE2) and for AVX2, picked
+// at load time. The VEX three-operand forms save ~10% of the instructions (register copies); no
+// FMA is enabled, so both versions round identically and give bitwise the same results.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
+#define CVT_ENVELOPE_CLONES __attribute__((target_clones("avx2", "default")))
+#define CVT_INLINE_IN_CLONES __attribute__((always_inline)) inline
+#else
+#define CVT_ENVELOPE_CLONES
+#define CVT_INLINE_IN_CLONES inline
+#endif
+
 // Per-thread work memory, sized once for the longest axis so no line allocates.
 struct Scratch {
   std::vector<float> tile_value;         // a tile of lines, row-major (kTileWidth per row)
@@ -131,7 +142,7 @@ void scan_row(const unsigned char* mask, float* value, std::int32_t* index, int 
 // intervals hold one or two samples, so rather than a loop per parabola (a mispredicted exit
 // each), count the interval ends at each sample and walk the samples once, branch-free.
 template <bool kNearest>
-void fill_from_envelope(float* value, std::int32_t* index, double w, int lo, int hi, int m,
+CVT_ENVELOPE_CLONES void fill_from_envelope(float* value, std::int32_t* index, double w, int lo, int hi, int m,
                         Scratch& s) {
   constexpr int stride = kTileWidth;
   const double* site = s.site.data();
@@ -176,7 +187,7 @@ bool is_zero(const float* v) {
 // independent segments; a run of zeros costs one compare per sample, and only the non-zero
 // samples cost any envelope work.
 template <bool kNearest>
-void envelope_line(float* value, std::int32_t* index, int n, double w, const double* w_q2,
+CVT_INLINE_IN_CLONES void envelope_line(float* value, std::int32_t* index, int n, double w, const double* w_q2,
                    Scratch& s) {
   constexpr int stride = kTileWidth;
   double* site = s.site.data();
@@ -259,7 +270,7 @@ void copy_row(const T* from, int width, T* to) {
 // Runs envelope_line over the `width` adjacent lines starting at `first`, each `n` samples at
 // `stride` apart in the volume, through the tile buffer (contiguous row copies in and out).
 template <bool kNearest>
-void envelope_tile(float* value, std::int32_t* index, std::size_t first, int width, int n,
+CVT_ENVELOPE_CLONES void envelope_tile(float* value, std::int32_t* index, std::size_t first, int width, int n,
                    std::size_t stride, double w, const double* w_q2, Scratch& s) {
   float* tv = s.tile_value.data();
   std::int32_t* ti = s.tile_index.data();
