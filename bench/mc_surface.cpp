@@ -1,6 +1,7 @@
-// The marching-cubes surface of an image's object, written as OFF for the TetGen baseline of
-// bench/compare: the same surface `cvtmesh quality --image` measures fidelity against (world,
-// mm, outward-oriented, closed 2-manifold).
+// The marching-cubes surface of an image's object, written as OFF for the TetGen and NETGEN
+// baselines of bench/compare: the same surface `cvtmesh quality --image` measures fidelity
+// against (the object after cvtmesh's default clean-up, so every method meshes one object;
+// world, mm, outward-oriented, closed 2-manifold).
 //
 //   bench_mc_surface IMAGE OUT.off [--labels all|L1,L2]
 // Prints one JSON line on stdout: {"vertices","triangles","wall_s","peak_rss_mb"}.
@@ -9,6 +10,7 @@
 #include <exception>
 #include <string>
 
+#include "fidelity.h"
 #include "image_io.h"
 #include "marching_cubes.h"
 #include "memory.h"
@@ -24,7 +26,7 @@ int main(int argc, char** argv) {
     cvt::ObjectSelection selection;
     if (argc == 5) selection.labels = cvt::parse_label_list(argv[4]);
     const cvt::TriangleSurface s =
-        cvt::marching_cubes(cvt::select_object(cvt::read_image(argv[1]), selection));
+        cvt::marching_cubes(cvt::fidelity_object(cvt::read_image(argv[1]), selection, {}));
     std::FILE* f = std::fopen(argv[2], "w");
     if (!f) throw std::runtime_error(std::string("cannot write ") + argv[2]);
     std::fprintf(f, "OFF\n%zu %zu 0\n", s.vertices.size(), s.triangles.size());
