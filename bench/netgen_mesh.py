@@ -82,7 +82,7 @@ def main():
     a = ap.parse_args()
     if not os.path.exists(a.surface):
         sys.exit(f"{a.surface}: no such file")
-    stl_parameters = set_stl_parameters(a.stl)
+    stl_parameters = set_stl_parameters(a.stl) if a.stl else "defaults"
     ngm.SetMessageImportance(0)
     t0 = time.perf_counter()
     geometry = LoadSTLGeometry(a.surface)
