@@ -8,7 +8,6 @@
 #include <tbb/global_control.h>
 #include <tbb/info.h>
 #include <tbb/parallel_for.h>
-
 #include <time.h>
 
 #include <algorithm>
@@ -106,7 +105,7 @@ struct Case {
   std::string key;          // for --only
   std::string description;  // what is timed
   int threads;
-  std::function<void()> run;  // the timed work
+  std::function<void()> run;            // the timed work
   std::function<void()> after = [] {};  // untimed clean-up (freeing fresh buffers)
   std::vector<double> ms, cpu_ms;
 };
@@ -123,9 +122,12 @@ int main(int argc, char** argv) {
   int rounds = 7, max_threads = tbb::info::default_concurrency();
   std::string only;
   for (int a = 1; a < argc; ++a) {
-    if (!std::strcmp(argv[a], "--rounds") && a + 1 < argc) rounds = std::atoi(argv[++a]);
-    else if (!std::strcmp(argv[a], "--threads") && a + 1 < argc) max_threads = std::atoi(argv[++a]);
-    else if (!std::strcmp(argv[a], "--only") && a + 1 < argc) only = argv[++a];
+    if (!std::strcmp(argv[a], "--rounds") && a + 1 < argc)
+      rounds = std::atoi(argv[++a]);
+    else if (!std::strcmp(argv[a], "--threads") && a + 1 < argc)
+      max_threads = std::atoi(argv[++a]);
+    else if (!std::strcmp(argv[a], "--only") && a + 1 < argc)
+      only = argv[++a];
     else {
       std::fprintf(stderr, "usage: %s [--rounds N] [--threads N] [--only CASE]\n", argv[0]);
       return 2;
@@ -152,14 +154,14 @@ int main(int argc, char** argv) {
   cases.push_back({"memcpy-fresh", "copy into a fresh allocation (vector copy, page faults)", 1,
                    [&] { fresh = src; }, [&] { fresh = std::vector<float>(); }});
   if (max_threads > 1)
-    cases.push_back({"memcpy-warm-mt", "memcpy split in 1 MiB chunks, destination touched",
-                     max_threads, [&] {
-                       const std::size_t chunk = std::size_t(1) << 18;  // floats
-                       tbb::parallel_for(std::size_t(0), (n + chunk - 1) / chunk, [&](std::size_t c) {
-                         const std::size_t b = c * chunk, e = std::min(n, b + chunk);
-                         std::memcpy(warm.data() + b, src.data() + b, (e - b) * sizeof(float));
-                       });
-                     }});
+    cases.push_back(
+        {"memcpy-warm-mt", "memcpy split in 1 MiB chunks, destination touched", max_threads, [&] {
+           const std::size_t chunk = std::size_t(1) << 18;  // floats
+           tbb::parallel_for(std::size_t(0), (n + chunk - 1) / chunk, [&](std::size_t c) {
+             const std::size_t b = c * chunk, e = std::min(n, b + chunk);
+             std::memcpy(warm.data() + b, src.data() + b, (e - b) * sizeof(float));
+           });
+         }});
   cases.push_back({"zero-fresh", "std::vector<float>(n): fresh, zero-filled (no huge pages)", 1,
                    [&] { fresh = std::vector<float>(n); }, [&] { fresh = std::vector<float>(); }});
   // Buffers allocated like the EDT's outputs (huge pages where the kernel offers them).
@@ -207,8 +209,8 @@ int main(int argc, char** argv) {
       const double cpu0 = process_cpu_ms();
       const auto t0 = std::chrono::steady_clock::now();
       c.run();
-      c.ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0)
-                         .count());
+      c.ms.push_back(
+          std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
       c.cpu_ms.push_back(process_cpu_ms() - cpu0);
       c.after();
     }
@@ -230,7 +232,8 @@ int main(int argc, char** argv) {
     std::printf(" %10.1f %9.1f\n", warm_ms > 0 ? best / warm_ms : 0.0,
                 *std::min_element(c.cpu_ms.begin(), c.cpu_ms.end()));
   }
-  std::printf("ns/voxel: min wall time per voxel (not per thread); x memcpy: min / min of "
-              "memcpy-warm; CPU ms: min process CPU time (all threads, kernel included)\n");
+  std::printf(
+      "ns/voxel: min wall time per voxel (not per thread); x memcpy: min / min of "
+      "memcpy-warm; CPU ms: min process CPU time (all threads, kernel included)\n");
   return 0;
 }

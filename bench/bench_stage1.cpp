@@ -2,6 +2,8 @@
 // Usage: bench_stage1 [IMAGE] [--threads N] [--repeat N]
 //   --repeat runs stage 1 N times (one result alive at a time) and reports the minimum of each
 //   step and of the total, for a machine shared with other work.
+#include <tbb/global_control.h>
+#include <tbb/info.h>
 #include <time.h>
 
 #include <algorithm>
@@ -10,9 +12,6 @@
 #include <fstream>
 #include <string>
 #include <vector>
-
-#include <tbb/global_control.h>
-#include <tbb/info.h>
 
 #include "image_io.h"
 #include "preprocess.h"
@@ -39,9 +38,12 @@ int main(int argc, char** argv) {
   std::string path = "data/liver.inr.gz";
   int threads = tbb::info::default_concurrency(), repeat = 1;
   for (int a = 1; a < argc; ++a) {
-    if (!std::strcmp(argv[a], "--threads") && a + 1 < argc) threads = std::atoi(argv[++a]);
-    else if (!std::strcmp(argv[a], "--repeat") && a + 1 < argc) repeat = std::atoi(argv[++a]);
-    else path = argv[a];
+    if (!std::strcmp(argv[a], "--threads") && a + 1 < argc)
+      threads = std::atoi(argv[++a]);
+    else if (!std::strcmp(argv[a], "--repeat") && a + 1 < argc)
+      repeat = std::atoi(argv[++a]);
+    else
+      path = argv[a];
   }
   if (threads < 1 || repeat < 1) {
     std::fprintf(stderr, "%s: --threads and --repeat must be positive\n", argv[0]);

@@ -142,8 +142,8 @@ void scan_row(const unsigned char* mask, float* value, std::int32_t* index, int 
 // intervals hold one or two samples, so rather than a loop per parabola (a mispredicted exit
 // each), count the interval ends at each sample and walk the samples once, branch-free.
 template <bool kNearest>
-CVT_ENVELOPE_CLONES void fill_from_envelope(float* value, std::int32_t* index, double w, int lo, int hi, int m,
-                        Scratch& s) {
+CVT_ENVELOPE_CLONES void fill_from_envelope(float* value, std::int32_t* index, double w, int lo,
+                                            int hi, int m, Scratch& s) {
   constexpr int stride = kTileWidth;
   const double* site = s.site.data();
   const double* sf = s.site_f.data();
@@ -187,8 +187,8 @@ bool is_zero(const float* v) {
 // independent segments; a run of zeros costs one compare per sample, and only the non-zero
 // samples cost any envelope work.
 template <bool kNearest>
-CVT_INLINE_IN_CLONES void envelope_line(float* value, std::int32_t* index, int n, double w, const double* w_q2,
-                   Scratch& s) {
+CVT_INLINE_IN_CLONES void envelope_line(float* value, std::int32_t* index, int n, double w,
+                                        const double* w_q2, Scratch& s) {
   constexpr int stride = kTileWidth;
   double* site = s.site.data();
   double* sf = s.site_f.data();
@@ -270,8 +270,9 @@ void copy_row(const T* from, int width, T* to) {
 // Runs envelope_line over the `width` adjacent lines starting at `first`, each `n` samples at
 // `stride` apart in the volume, through the tile buffer (contiguous row copies in and out).
 template <bool kNearest>
-CVT_ENVELOPE_CLONES void envelope_tile(float* value, std::int32_t* index, std::size_t first, int width, int n,
-                   std::size_t stride, double w, const double* w_q2, Scratch& s) {
+CVT_ENVELOPE_CLONES void envelope_tile(float* value, std::int32_t* index, std::size_t first,
+                                       int width, int n, std::size_t stride, double w,
+                                       const double* w_q2, Scratch& s) {
   float* tv = s.tile_value.data();
   std::int32_t* ti = s.tile_index.data();
   for (int q = 0; q < n; ++q) {
@@ -279,8 +280,7 @@ CVT_ENVELOPE_CLONES void envelope_tile(float* value, std::int32_t* index, std::s
     copy_row(value + at, width, tv + std::size_t(q) * kTileWidth);
     if constexpr (kNearest) copy_row(index + at, width, ti + std::size_t(q) * kTileWidth);
   }
-  for (int c = 0; c < width; ++c)
-    envelope_line<kNearest>(tv + c, ti + c, n, w, w_q2, s);
+  for (int c = 0; c < width; ++c) envelope_line<kNearest>(tv + c, ti + c, n, w, w_q2, s);
   for (int q = 0; q < n; ++q) {
     const std::size_t at = first + q * stride;
     copy_row(tv + std::size_t(q) * kTileWidth, width, value + at);
@@ -335,7 +335,6 @@ void transform(const Mask& features, float* value, std::int32_t* index) {
       });
 }
 
-
 // Asks the kernel to back the whole 2 MiB pages inside [data, data + bytes) by huge pages.
 void advise_huge_pages(void* data, std::size_t bytes) {
 #if defined(__linux__) && defined(MADV_HUGEPAGE)
@@ -378,8 +377,7 @@ void check_input(const Mask& features) {
 
 }  // namespace
 
-void compute_feature_transform(const Mask& features, FeatureTransform& out,
-                               bool compute_nearest) {
+void compute_feature_transform(const Mask& features, FeatureTransform& out, bool compute_nearest) {
   check_input(features);
   const Grid& grid = features.grid;
   const std::size_t n = grid.voxel_count();
