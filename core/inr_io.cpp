@@ -57,10 +57,16 @@ InrHeader read_header(gzFile f, const std::string& path) {
   if (!next_line() || std::strcmp(line, "#INRIMAGE-4#{") != 0)
     throw InputError(path + ": not an INRIMAGE-4 file (bad, missing or truncated header)");
   InrHeader h;
+  // Like CGAL, fields end at the first empty line or '#' line; what follows up to "##}" is
+  // comments. Reading fields beyond that would judge a header CGAL reads differently (and
+  // CGAL leaks its comment list when it then refuses the header).
+  bool in_fields = true;
   for (int n = 0;; ++n) {
     if (n > 4096 || !next_line())
       throw InputError(path + ": truncated or corrupt INRIMAGE header (no end marker)");
     if (std::strncmp(line, "##}", 3) == 0) break;
+    in_fields = in_fields && line[0] != '#' && line[0] != '\0';
+    if (!in_fields) continue;
     std::string s(line);
     const std::size_t eq = s.find('=');
     if (eq == std::string::npos) continue;

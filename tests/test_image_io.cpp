@@ -438,6 +438,24 @@ TEST(ImageIO, CorruptHeadersFoundByFuzzing) {
   write_bytes(bad_type, "ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\n"
                         "ElementType = MET_BOGUS\nElementDataFile = LOCAL\n" + std::string(8, '\1'));
   expect_input_error(read(bad_type), bad_type, "pixel type");
+  // NRRD: teem allocated and zeroed what the header announces (here 4.8 GB) before reading.
+  const std::string gigavoxels = dir / "gigavoxels.nrrd";
+  write_bytes(gigavoxels, "NRRD0004\ntype: int\ndimension: 3\nsizes: 1 597950803 2\n"
+                          "endian: little\nencoding: raw\n\n" + std::string(27, '\1'));
+  expect_input_error(read(gigavoxels), gigavoxels, "truncated (27 of 4783606424 bytes");
+  const std::string gz_claim = dir / "gz_claim.nrrd";
+  write_bytes(gz_claim, "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 1000 1000 1000\n"
+                        "encoding: gzip\n\n" + std::string(30, '\0'));
+  expect_input_error(read(gz_claim), gz_claim, "gzip voxel data");
+
+  // INRIMAGE: CGAL reads no field after a '#' comment line, so neither do we (CPU, TYPE unset).
+  const std::string commented = dir / "commented.inr";
+  std::string inr = "#INRIMAGE-4#{\nXDIM=2\nYDIM=2\nZDIM=2\nVDIM=1\n#a comment\n"
+                    "TYPE=unsigned fixed\nPIXSIZE=8 bits\nCPU=decm\nVX=1\nVY=1\nVZ=1\n";
+  inr += std::string(252 - inr.size(), '\n') + "##}\n" + std::string(8, '\1');
+  write_bytes(commented, inr);
+  expect_input_error(read(commented), commented, "lacks a known CPU");
+
   // Only the reader the extension names: an NRRD file called .mha is not a MetaImage.
   cvt::write_image(make_image("uint8", false), dir / "really.nrrd");
   fs::rename(dir / "really.nrrd", dir / "really.mha");
