@@ -2,7 +2,8 @@
 #   test_render_logic, test_render_data, test_gui_logic
 #                                      GL-free logic of render/ and app/gui/, no window
 #   test_gui_*                         cvtmesh-gui scripted under xvfb-run (Mesa llvmpipe), its
-#                                      PNGs checked by check_screenshot (OpenImageIO)
+#                                      PNGs checked by check_screenshot (OpenImageIO); inputs
+#                                      sent as GLFW drop and key events (--drop, --press)
 if(NOT CVTMESH_BUILD_GUI)
   return()
 endif()

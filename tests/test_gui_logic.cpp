@@ -221,7 +221,7 @@ TEST(FrameStats, BenchmarkPhases) {
   b.record(20, "preprocess", false);
   b.record(5, "", false);  // idle but not yet drawn: not counted
   EXPECT_LT(b.sweep_position(), 0);
-  for (int i = 0; i < 3; ++i) b.record(10, "", true);
+  for (int i = 0; i < 3; ++i) b.record(10, "", true, 4);
   EXPECT_DOUBLE_EQ(b.sweep_position(), 0.3);  // the sweep starts
   for (int i = 0; i < 3; ++i) b.record(12, "", true);
   EXPECT_TRUE(b.done());
@@ -231,6 +231,15 @@ TEST(FrameStats, BenchmarkPhases) {
   EXPECT_NE(report.find("static view: 3 frames, mean 10.0 ms"), std::string::npos) << report;
   EXPECT_NE(report.find("rebuilt every frame): 3 frames, mean 12.0 ms"), std::string::npos)
       << report;
+  // CPU times where given.
+  EXPECT_NE(report.find("static view (CPU): 3 frames, mean 4.0 ms"), std::string::npos) << report;
+  EXPECT_EQ(report.find("while jobs ran (CPU)"), std::string::npos) << report;
+  // This thread's CPU time grows with work.
+  const double c0 = render_cpu_ms();
+  ASSERT_GE(c0, 0);
+  volatile double x = 0;
+  for (int i = 0; i < 20000000; ++i) x = x + 1e-9 * i;
+  EXPECT_GT(render_cpu_ms(), c0);
 }
 
 TEST(PipelineWorker, RunsInOrderCancelsAndDropsAfterAFailure) {

@@ -2,7 +2,10 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 #include <numeric>
+#include <string>
 
 namespace cvt::gui {
 
@@ -33,14 +36,42 @@ std::string describe(const std::string& label, const FrameStats& s) {
 
 namespace cvt::gui {
 
-void BenchmarkRecorder::record(double ms, const std::string& job, bool ready) {
+double render_cpu_ms() {
+  namespace fs = std::filesystem;
+  auto run_ns = [](const fs::path& task) {
+    std::ifstream in(task / "schedstat");
+    double ns = -1;
+    in >> ns;
+    return ns;
+  };
+  std::error_code ec;
+  const double own = run_ns(fs::path("/proc/thread-self"));
+  if (own < 0) return -1;
+  double ns = own;
+  for (fs::directory_iterator it("/proc/self/task", ec), end; !ec && it != end; it.increment(ec)) {
+    std::ifstream comm(it->path() / "comm");
+    std::string name;
+    std::getline(comm, name);
+    if (name.rfind("llvmpipe", 0) == 0) ns += std::max(run_ns(it->path()), 0.0);
+  }
+  return ns * 1e-6;
+}
+
+void BenchmarkRecorder::record(double ms, const std::string& job, bool ready, double cpu_ms) {
+  auto keep = [cpu_ms](std::vector<double>& wall, std::vector<double>& cpu, double w) {
+    wall.push_back(w);
+    if (cpu_ms >= 0) cpu.push_back(cpu_ms);
+  };
   if (!job.empty()) {
-    busy_.push_back(ms);
-    if (job == "CVT sampling" || job.rfind("Lloyd", 0) == 0) lloyd_.push_back(ms);
+    keep(busy_, busy_cpu_, ms);
+    if (job == "CVT sampling" || job.rfind("Lloyd", 0) == 0) keep(lloyd_, lloyd_cpu_, ms);
     return;
   }
   if (!ready || done()) return;
-  (recorded_ < frames_ ? still_ : sweep_).push_back(ms);
+  if (recorded_ < frames_)
+    keep(still_, still_cpu_, ms);
+  else
+    keep(sweep_, sweep_cpu_, ms);
   ++recorded_;
 }
 
@@ -50,10 +81,17 @@ double BenchmarkRecorder::sweep_position() const {
 }
 
 std::string BenchmarkRecorder::report() const {
-  return describe("while jobs ran", frame_stats(busy_)) + "\n" +
-         describe("  of which during Lloyd iterations", frame_stats(lloyd_)) + "\n" +
-         describe("static view", frame_stats(still_)) + "\n" +
-         describe("clip plane moving (cut-away rebuilt every frame)", frame_stats(sweep_)) + "\n";
+  std::string out;
+  auto phase = [&out](const std::string& label, const std::vector<double>& wall,
+                      const std::vector<double>& cpu) {
+    out += describe(label, frame_stats(wall)) + "\n";
+    if (!cpu.empty()) out += describe(label + " (CPU)", frame_stats(cpu)) + "\n";
+  };
+  phase("while jobs ran", busy_, busy_cpu_);
+  phase("  of which during Lloyd iterations", lloyd_, lloyd_cpu_);
+  phase("static view", still_, still_cpu_);
+  phase("clip plane moving (cut-away rebuilt every frame)", sweep_, sweep_cpu_);
+  return out;
 }
 
 }  // namespace cvt::gui

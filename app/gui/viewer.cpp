@@ -226,6 +226,7 @@ int run_viewer(const ViewerOptions& options) {
     Rect last_area;
     while (renderer && exit_code == 0 && !glfwWindowShouldClose(window) && !ui.quit) {
       const double frame_start = now_s();
+      const double cpu_start = options.benchmark_frames ? render_cpu_ms() : 0.0;
       const bool was_idle = !session.busy();
       const std::string running_job = session.worker_status().job;
       // Benchmarks draw continuously. Other runs wait for events, or 1/30 s while a job runs
@@ -324,7 +325,9 @@ int run_viewer(const ViewerOptions& options) {
         if (frame_ms > 50 && std::getenv("CVTMESH_GUI_TRACE"))
           std::fprintf(stderr, "slow frame %.1f ms (sync %.1f ms) during '%s'\n", frame_ms, sync_ms,
                        running_job.c_str());
-        bench.record(frame_ms, was_idle ? "" : running_job, ready_frames > 3);
+        const double cpu_end = render_cpu_ms();
+        bench.record(frame_ms, was_idle ? "" : running_job, ready_frames > 3,
+                     cpu_start >= 0 && cpu_end >= 0 ? cpu_end - cpu_start : -1.0);
         if (const double x = bench.sweep_position(); x >= 0)
           view.clip_enabled = true, view.clip_position = x;
         if (bench.done()) break;
