@@ -64,6 +64,13 @@ ParameterOptions::ParameterOptions(CLI::App* cmd) {
        &Parameters::epsilon_mm);
   bind(cmd->add_option("--max-iterations", given_.max_iterations, "Lloyd iteration cap"),
        &Parameters::max_iterations);
+  bind(cmd->add_option("--fidelity-rounds", given_.fidelity_rounds,
+                       "Re-triangulations adding surface samples where mesh and segmentation "
+                       "disagree; 0 = off"),
+       &Parameters::fidelity_rounds);
+  bind(cmd->add_option("--fidelity-tolerance", given_.fidelity_tolerance_mm,
+                       "Disagreement (mm) that triggers a re-triangulation; 0 = auto"),
+       &Parameters::fidelity_tolerance_mm);
   bind(cmd->add_option("--optimize", given_.optimize, "Mesh optimisation: none | default")
            ->check(CLI::IsMember({"none", "default"})),
        &Parameters::optimize);

@@ -186,6 +186,9 @@ FidelityReport compute_fidelity(const TetMesh& mesh, const Mask& object,
 
   const TriangleSurface reference = marching_cubes(object);
   rep.object_surface_triangles = reference.triangles.size();
+  const SurfaceTopology topology = surface_topology(reference.triangles, reference.vertices.size());
+  rep.object_surface_euler = topology.euler_characteristic;
+  rep.object_surface_components = topology.components;
   SurfaceDistanceOptions sd;
   sd.sample_spacing_mm = options.sample_spacing_voxels * std::min({s.x, s.y, s.z});
   sd.max_samples = options.max_samples;
@@ -215,7 +218,9 @@ nlohmann::json to_json(const FidelityReport& r) {
           {"object_to_mesh", {{"max_mm", d.b_to_a_max_mm}, {"mean_mm", d.b_to_a_mean_mm}}},
           {"sample_spacing_mm", d.sample_spacing_mm},
           {"samples", {{"mesh", d.samples_a}, {"object", d.samples_b}}},
-          {"object_surface_triangles", r.object_surface_triangles}};
+          {"object_surface_triangles", r.object_surface_triangles},
+          {"object_surface_euler", r.object_surface_euler},
+          {"object_surface_components", r.object_surface_components}};
 }
 
 }  // namespace cvt

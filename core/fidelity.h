@@ -53,6 +53,9 @@ struct FidelityReport {
   double object_volume_mm3 = 0;     // object voxel count × voxel volume
   double volume_error_percent = 0;  // 100 (mesh − object) / object (signed)
   std::size_t object_surface_triangles = 0;
+  long long object_surface_euler = 0;  // of the marching-cubes surface, to hold the mesh
+  std::size_t object_surface_components = 0;  // boundary's topology against
+
   SurfaceDistance distance;  // A = mesh boundary, B = object's marching-cubes surface
 };
 
@@ -70,7 +73,8 @@ Mask fidelity_object(const Image& image, const ObjectSelection& selection,
 
 // {"mesh_volume_mm3","object_volume_mm3","volume_error_percent","hausdorff_mm","mean_mm",
 //  "p95_mm","mesh_to_object":{"max_mm","mean_mm"},"object_to_mesh":{...},"sample_spacing_mm",
-//  "samples":{"mesh","object"},"object_surface_triangles"}
+//  "samples":{"mesh","object"},"object_surface_triangles","object_surface_euler",
+//  "object_surface_components"}
 nlohmann::json to_json(const FidelityReport& report);
 
 }  // namespace cvt

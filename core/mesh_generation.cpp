@@ -6,6 +6,7 @@
 #include <CGAL/Delaunay_triangulation_3.h>
 #include <CGAL/Delaunay_triangulation_cell_base_3.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Triangulation_cell_base_with_info_3.h>
 #include <CGAL/Triangulation_vertex_base_with_info_3.h>
 
 #include "errors.h"
@@ -16,10 +17,14 @@ namespace {
 
 using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using VertexBase = CGAL::Triangulation_vertex_base_with_info_3<int, Kernel>;
-using CellBase = CGAL::Delaunay_triangulation_cell_base_3<Kernel>;  // has circumcenter()
+// Cells carry their fate under rules 1–2 (CellFate); the Delaunay base has circumcenter().
+using CellBase = CGAL::Triangulation_cell_base_with_info_3<
+    int, Kernel, CGAL::Delaunay_triangulation_cell_base_3<Kernel>>;
 using DataStructure = CGAL::Triangulation_data_structure_3<VertexBase, CellBase>;
 using Delaunay = CGAL::Delaunay_triangulation_3<Kernel, DataStructure>;
 using Point = Kernel::Point_3;
+
+enum CellFate : int { kept_cell, pole_cell, outside_cell };
 
 Point to_point(const Vec3& v) { return {v.x, v.y, v.z}; }
 Vec3 to_vec(const Point& p) { return {p.x(), p.y(), p.z()}; }
@@ -64,6 +69,47 @@ Vec3 jitter(int index, const MeshGenerationOptions& options) {
     out[a] = (double(z >> 11) / double(1ULL << 53) * 2.0 - 1.0) * options.interior_jitter_mm;
   }
   return out;
+}
+
+// Rule 2: the centroid's occupancy decides. Large tets need only reach inside_from (one that
+// straddles a notch would expose faces deep inside); small ones must be inside (≥ 0.5), since
+// in a channel narrower than the smoothing the indicator never drops to inside_from.
+bool centroid_outside(Delaunay::Cell_handle c, const OccupancyFunction& occupancy,
+                      const MeshGenerationOptions& options) {
+  std::array<Vec3, 4> p;
+  Vec3 centroid{0, 0, 0};
+  for (int k = 0; k < 4; ++k) centroid += p[k] = to_vec(c->vertex(k)->point());
+  double longest2 = 0;
+  for (int a = 0; a < 4; ++a)
+    for (int b = a + 1; b < 4; ++b) longest2 = std::max(longest2, squared_distance(p[a], p[b]));
+  const bool small = longest2 < options.small_tet_edge_mm * options.small_tet_edge_mm;
+  return occupancy(centroid / 4.0) < (small ? 0.5 : options.inside_from);
+}
+
+// Rule 2 only carves what the outside reaches: cells it removed that are enclosed by kept cells
+// (not connected through removed cells to a pole's cell or the hull) are kept again, as a void
+// there would be an artefact of the centroid test, not a cavity of the object (those hold
+// exterior poles).
+void restore_enclosed(const Delaunay& dt, const std::vector<Delaunay::Cell_handle>& outside) {
+  std::vector<Delaunay::Cell_handle> reached;
+  for (Delaunay::Cell_handle c : outside)
+    for (int k = 0; k < 4; ++k) {
+      const Delaunay::Cell_handle n = c->neighbor(k);
+      if (dt.is_infinite(n) || n->info() == pole_cell) {
+        c->info() = -outside_cell;  // reached: marked by the sign until the end
+        reached.push_back(c);
+        break;
+      }
+    }
+  for (std::size_t q = 0; q < reached.size(); ++q)
+    for (int k = 0; k < 4; ++k) {
+      const Delaunay::Cell_handle n = reached[q]->neighbor(k);
+      if (!dt.is_infinite(n) && n->info() == outside_cell) {
+        n->info() = -outside_cell;
+        reached.push_back(n);
+      }
+    }
+  for (Delaunay::Cell_handle c : outside) c->info() = c->info() == -outside_cell ? outside_cell : kept_cell;
 }
 
 }  // namespace
@@ -179,30 +225,48 @@ MeshGenerationResult build_delaunay_mesh(const std::vector<Vec3>& surface,
     kept.clear();
     out.removed_outside.clear();
     out.delaunay_tets = out.removed_by_poles = out.removed_by_centroid = 0;
+    std::vector<Delaunay::Cell_handle> outside;
     for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
       ++out.delaunay_tets;
-      Tet t;
-      bool pole = false;
-      for (int k = 0; k < 4; ++k) {
-        t[k] = c->vertex(k)->info();
-        pole |= t[k] < 0;
-      }
-      if (pole) {
+      c->info() = kept_cell;
+      for (int k = 0; k < 4; ++k)
+        if (c->vertex(k)->info() < 0) c->info() = pole_cell;
+      if (c->info() == pole_cell) {
         ++out.removed_by_poles;
         continue;
       }
-      if (options.remove_outside_tets) {
-        Vec3 centroid{0, 0, 0};
-        std::array<Vec3, 4> corners;
-        for (int k = 0; k < 4; ++k) centroid += corners[k] = to_vec(c->vertex(k)->point());
-        if (occupancy(centroid / 4.0) < options.inside_from) {
-          ++out.removed_by_centroid;
-          out.removed_outside.push_back(corners);
-          continue;
-        }
+      if (options.remove_outside_tets && centroid_outside(c, occupancy, options)) {
+        c->info() = outside_cell;
+        outside.push_back(c);
       }
-      kept.push_back(t);
     }
+    if (options.remove_outside_tets)
+      for (const Vec3& p : options.outside_points) {
+        const Delaunay::Cell_handle c = dt.locate(to_point(p));
+        if (dt.is_infinite(c) || c->info() != kept_cell) continue;
+        c->info() = outside_cell;
+        outside.push_back(c);
+      }
+    restore_enclosed(dt, outside);
+    for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
+      if (c->info() == pole_cell) continue;
+      std::array<Vec3, 4> corners;
+      Tet t;
+      for (int k = 0; k < 4; ++k) {
+        t[k] = c->vertex(k)->info();
+        corners[k] = to_vec(c->vertex(k)->point());
+      }
+      if (c->info() == outside_cell) {
+        ++out.removed_by_centroid;
+        out.removed_outside.push_back(corners);
+      } else {
+        kept.push_back(t);
+      }
+    }
+    // CGAL's vertex removal orders its work by handle address, which varies from run to run;
+    // a canonical order keeps the pinch and repair steps (order-dependent) deterministic.
+    for (Tet& t : kept) t = canonical(t);
+    std::sort(kept.begin(), kept.end());
     if (!options.repair_manifold || pass >= options.max_pinch_passes) break;
     const std::vector<std::int32_t> pinched = pinched_boundary_vertices(std::size_t(nb + ni), kept);
     if (pinched.empty()) break;

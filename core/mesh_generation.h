@@ -30,7 +30,14 @@ struct MeshGenerationOptions {
   // Below 0.5 because removing a big tet that merely straddles a notch exposes faces deep
   // inside; 0.3 gave the smallest Hausdorff distance on the liver (0.5: 6.2 mm, 0.3: 4.7 mm).
   double inside_from = 0.3;
-  bool remove_outside_tets = true;  // rule 2 on/off
+  // Rule 2 for small tets (longest edge below this, mm): kept only where the centroid is inside
+  // (occupancy ≥ 0.5). 0 = never; build_refined_mesh makes 0 2 × the largest voxel spacing.
+  double small_tet_edge_mm = 0;
+  bool remove_outside_tets = true;  // rule 2 on/off; cells it removes that the outside does not
+                                    // reach (through removed cells) are kept again
+  // Rule 2 also removes the tets containing these points (world, mm): places known to be
+  // outside where the centroid test fails (fidelity refinement finds them).
+  std::vector<Vec3> outside_points;
   // Lloyd sites can be exactly coplanar and cospherical (centroids of symmetric voxel sets);
   // Delaunay then has flat tets. Interior points are nudged by up to this (mm), with a
   // deterministic hash of their index and the seed, before triangulation.
@@ -41,6 +48,14 @@ struct MeshGenerationOptions {
   int max_pinch_passes = 10;        // rounds of sample deletion before peeling takes over
   double min_component_fraction = 0.01;  // rule 4: drop tet groups below this volume fraction
                                          // of the largest (stray slivers)
+};
+
+// One round of fidelity refinement (fidelity_refinement.h).
+struct FidelityRefinementRound {
+  std::size_t disagreeing_voxels = 0;  // voxels where mesh and object differ beyond tolerance
+  std::size_t added_samples = 0;       // surface samples added on the object boundary
+  std::size_t dropped_interior = 0;    // interior samples removed next to the new ones
+  bool accepted = false;  // its mesh had fewer disagreeing voxels (else it was dropped)
 };
 
 struct MeshGenerationResult {
@@ -58,7 +73,12 @@ struct MeshGenerationResult {
   std::vector<std::array<Vec3, 4>> removed_by_repair;  // tets removed by rules 3–4, for the viewer
   std::size_t unused_samples = 0;         // samples of B ∪ I no kept tet references
   std::vector<int> vertex_source;         // for each mesh vertex: index into B, or |B| + index
-                                          // in I; −1 for a vertex stage 6 inserted
+                                          // in I; −1 for a vertex stage 6 inserted. After
+                                          // fidelity refinement B and I are the refined sets:
+                                          // B then added_surface_samples; I without dropped.
+  std::vector<Vec3> added_surface_samples;     // by fidelity refinement (world, mm)
+  std::vector<Vec3> dropped_interior_samples;  // by fidelity refinement (world, mm)
+  std::vector<FidelityRefinementRound> refinement;  // one per check made
 };
 
 MeshGenerationResult build_delaunay_mesh(const std::vector<Vec3>& surface_samples,

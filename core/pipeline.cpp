@@ -53,6 +53,14 @@ CvtOptions cvt_options(const Parameters& p, double default_spacing_mm) {
   return o;
 }
 
+FidelityRefinementOptions refinement_options(const Parameters& p) {
+  FidelityRefinementOptions o;
+  o.max_rounds = p.fidelity_rounds;
+  o.tolerance_mm = p.fidelity_tolerance_mm;
+  o.r = p.r;
+  return o;
+}
+
 MeshGenerationOptions mesh_options(const Parameters& p) {
   MeshGenerationOptions o;
   o.min_component_fraction = p.remove_small_components ? p.min_component_fraction : 0.0;
@@ -81,7 +89,9 @@ Stage first_changed_stage(const Parameters& a, const Parameters& b) {
       a.interior_points != b.interior_points || a.epsilon_mm != b.epsilon_mm ||
       a.max_iterations != b.max_iterations || a.seed != b.seed)
     return Stage::cvt;
-  if (a.optimize != b.optimize) return Stage::mesh;  // stage 6 runs inside the mesh stage
+  if (a.fidelity_rounds != b.fidelity_rounds || a.fidelity_tolerance_mm != b.fidelity_tolerance_mm ||
+      a.optimize != b.optimize)  // stage 6 runs inside the mesh stage
+    return Stage::mesh;
   return Stage::count;  // threads and the guards do not change results
 }
 
@@ -168,16 +178,9 @@ void Pipeline::run_stage(Stage s, const Progress& progress) {
         optimize_passes(-1, progress);
         break;
       }
-      const Volume<float>& indicator = preprocess_->indicator;
-      auto occupancy = [&indicator](const Vec3& world) {
-        const Vec3 idx = indicator.grid.world_to_index(world);
-        for (int a = 0; a < 3; ++a)
-          if (!(idx[a] >= 0 && idx[a] <= indicator.grid.dims[a] - 1)) return 0.0;
-        return double(sample_trilinear(indicator, idx));
-      };
       mesh_ = std::make_unique<MeshGenerationResult>(
-          build_delaunay_mesh(surface_->world, shallow_->kept_world, occupancy,
-                              mesh_options(parameters_), progress));
+          build_refined_mesh(*preprocess_, surface_->world, shallow_->kept_world,
+                             mesh_options(parameters_), refinement_options(parameters_), progress));
       // Stage 6 (optional) starts from the stage-5 mesh, which is kept for before/after figures.
       if (parameters_.optimize == "default") {
         start_optimization();

@@ -12,6 +12,7 @@
 
 #include "cvt_sampling.h"
 #include "fidelity.h"
+#include "fidelity_refinement.h"
 #include "image.h"
 #include "mesh_generation.h"
 #include "mesh_optimization.h"
@@ -36,6 +37,7 @@ PreprocessOptions preprocess_options(const Parameters& p);
 SurfaceSamplingOptions surface_options(const Parameters& p);
 CvtOptions cvt_options(const Parameters& p, double default_spacing_mm);
 MeshGenerationOptions mesh_options(const Parameters& p);
+FidelityRefinementOptions refinement_options(const Parameters& p);
 
 struct StageRecord {
   std::string name;

@@ -65,6 +65,15 @@ nlohmann::json run_report(const Pipeline& pipe) {
     counts["removed_by_repair"] = m->removed_by_repair.size();
     counts["removed_small_components"] = m->removed_small_components;
     counts["repair_passes"] = m->repair.passes;
+    counts["refinement_added_samples"] = m->added_surface_samples.size();
+    counts["refinement_dropped_interior"] = m->dropped_interior_samples.size();
+    json rounds = json::array();
+    for (const FidelityRefinementRound& r : m->refinement)
+      rounds.push_back({{"disagreeing_voxels", r.disagreeing_voxels},
+                        {"added_samples", r.added_samples},
+                        {"dropped_interior", r.dropped_interior},
+                        {"accepted", r.accepted}});
+    j["refinement"] = rounds;
   }
   j["counts"] = counts;
   if (const OptimizationResult* o = pipe.optimization()) j["optimization"] = to_json(*o);

@@ -61,6 +61,15 @@ const std::vector<ParameterInfo>& parameter_infos() {
        "the number of sites).",
        S::cvt},
       {"max_iterations", "max iterations", "Cap on Lloyd iterations.", S::cvt},
+      {"fidelity_rounds", "fidelity rounds",
+       "Stage 5: where the mesh and the segmentation disagree by more than the tolerance (a thin "
+       "channel bridged, a thin sheet missed), add surface samples and triangulate again, at "
+       "most this many times; 0 = off.",
+       S::mesh},
+      {"fidelity_tolerance_mm", "fidelity tolerance (mm)",
+       "Stage 5: disagreement (mm) between mesh and segmentation that triggers a refinement "
+       "round; 0 = auto (1.5 × the largest voxel spacing).",
+       S::mesh},
       {"optimize", "optimisation",
        "Stage 6, mesh optimisation after generation (part of the mesh stage): none or default.",
        S::mesh},

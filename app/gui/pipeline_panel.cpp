@@ -322,6 +322,10 @@ void draw_pipeline_panel(UiContext& ctx) {
     tooltip("seed");
     lloyd_section(ctx);
   }
+  if (stage_header("5 Mesh generation", states[int(Stage::mesh)])) {
+    changed |= edit_int("fidelity_rounds", p.fidelity_rounds);
+    changed |= edit_double("fidelity_tolerance_mm", p.fidelity_tolerance_mm);
+  }
   if (stage_header("6 Optimisation (in mesh generation)", states[int(Stage::mesh)]))
     changed |= optimization_section(ctx);
   if (ImGui::CollapsingHeader("Other (threads, guards)")) {

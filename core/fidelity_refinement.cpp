@@ -1,0 +1,219 @@
+#include "fidelity_refinement.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+#include <unordered_map>
+
+#include "distance_transform.h"
+#include "smoothing.h"
+#include "surface_sampling.h"
+
+namespace cvt {
+namespace {
+
+double largest(const Vec3& v) { return std::max({v.x, v.y, v.z}); }
+double smallest(const Vec3& v) { return std::min({v.x, v.y, v.z}); }
+
+// Points kept at least `spacing` apart, looked up in a hash grid of cells that size.
+class SpacedPoints {
+ public:
+  explicit SpacedPoints(double spacing) : spacing_(spacing) {}
+  bool has_neighbour(const Vec3& p) const {
+    const auto c = cell(p);
+    for (int dz = -1; dz <= 1; ++dz)
+      for (int dy = -1; dy <= 1; ++dy)
+        for (int dx = -1; dx <= 1; ++dx) {
+          const auto it = cells_.find(key({c[0] + dx, c[1] + dy, c[2] + dz}));
+          if (it == cells_.end()) continue;
+          for (const Vec3& q : it->second)
+            if (squared_distance(p, q) < spacing_ * spacing_) return true;
+        }
+    return false;
+  }
+  void add(const Vec3& p) { cells_[key(cell(p))].push_back(p); }
+
+ private:
+  std::array<std::int64_t, 3> cell(const Vec3& p) const {
+    return {std::int64_t(std::floor(p.x / spacing_)), std::int64_t(std::floor(p.y / spacing_)),
+            std::int64_t(std::floor(p.z / spacing_))};
+  }
+  static std::uint64_t key(const std::array<std::int64_t, 3>& c) {
+    return (std::uint64_t(c[0]) * 73856093ULL) ^ (std::uint64_t(c[1]) * 19349663ULL) ^
+           (std::uint64_t(c[2]) * 83492791ULL);
+  }
+  double spacing_;
+  std::unordered_map<std::uint64_t, std::vector<Vec3>> cells_;
+};
+
+// Voxels whose mesh state differs from a 6-neighbour's: the mesh boundary, voxelised.
+Mask mesh_boundary_voxels(const Mask& inside) {
+  Mask out(inside.grid, 0);
+  const auto& d = inside.grid.dims;
+  for (int k = 0; k < d[2]; ++k)
+    for (int j = 0; j < d[1]; ++j)
+      for (int i = 0; i < d[0]; ++i) {
+        const unsigned char s = inside.at(i, j, k);
+        const int n[6][3] = {{i - 1, j, k}, {i + 1, j, k}, {i, j - 1, k},
+                             {i, j + 1, k}, {i, j, k - 1}, {i, j, k + 1}};
+        for (const auto& q : n)
+          if (inside.grid.contains(q[0], q[1], q[2]) && inside.at(q[0], q[1], q[2]) != s) {
+            out.at(i, j, k) = 1;
+            break;
+          }
+      }
+  return out;
+}
+
+}  // namespace
+
+OccupancyFunction indicator_occupancy(const Volume<float>& indicator) {
+  return [&indicator](const Vec3& world) {
+    const Vec3 idx = indicator.grid.world_to_index(world);
+    for (int a = 0; a < 3; ++a)
+      if (!(idx[a] >= 0 && idx[a] <= indicator.grid.dims[a] - 1)) return 0.0;
+    return double(sample_trilinear(indicator, idx));
+  };
+}
+
+Mask voxelize(const TetMesh& mesh, const Grid& grid) {
+  Mask inside(grid, 0);
+  const double eps = 1e-9;
+  for (const Tet& t : mesh.tets) {
+    std::array<Vec3, 4> c;
+    Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+    for (int k = 0; k < 4; ++k) {
+      c[k] = grid.world_to_index(mesh.vertices[t[k]]);
+      for (int a = 0; a < 3; ++a) {
+        lo[a] = std::min(lo[a], c[k][a]);
+        hi[a] = std::max(hi[a], c[k][a]);
+      }
+    }
+    // Barycentric coordinates through the inverse of [c1−c0, c2−c0, c3−c0] (index space).
+    const Vec3 e1 = c[1] - c[0], e2 = c[2] - c[0], e3 = c[3] - c[0];
+    const double det = dot(e1, cross(e2, e3));
+    if (std::abs(det) < 1e-12) continue;
+    const Vec3 r1 = cross(e2, e3) / det, r2 = cross(e3, e1) / det, r3 = cross(e1, e2) / det;
+    std::array<int, 3> from, to;
+    for (int a = 0; a < 3; ++a) {
+      from[a] = std::max(0, int(std::ceil(lo[a] - eps)));
+      to[a] = std::min(grid.dims[a] - 1, int(std::floor(hi[a] + eps)));
+    }
+    for (int k = from[2]; k <= to[2]; ++k)
+      for (int j = from[1]; j <= to[1]; ++j)
+        for (int i = from[0]; i <= to[0]; ++i) {
+          const Vec3 p = Vec3{double(i), double(j), double(k)} - c[0];
+          const double b1 = dot(r1, p), b2 = dot(r2, p), b3 = dot(r3, p);
+          if (b1 >= -eps && b2 >= -eps && b3 >= -eps && b1 + b2 + b3 <= 1 + eps)
+            inside.at(i, j, k) = 1;
+        }
+  }
+  return inside;
+}
+
+FidelityFix find_fidelity_fix(const Mask& mesh_inside, const PreprocessResult& pre,
+                              const std::vector<Vec3>& existing, double tolerance_mm,
+                              double spacing_mm) {
+  const Mask& object = pre.object;
+  const Grid& grid = object.grid;
+  FidelityFix fix;
+  bool any = false;
+  for (std::size_t v = 0; v < object.size() && !any; ++v) any = mesh_inside.data[v] != object.data[v];
+  if (!any) return fix;
+  // How far each voxel is from the mesh boundary; from the object boundary we know already.
+  const FeatureTransform to_mesh = compute_feature_transform(mesh_boundary_voxels(mesh_inside), false);
+  SpacedPoints spaced(spacing_mm);
+  for (const Vec3& p : existing) spaced.add(p);
+  const double tolerance2 = tolerance_mm * tolerance_mm;
+  for (std::size_t v = 0; v < object.size(); ++v) {
+    if (mesh_inside.data[v] == object.data[v]) continue;
+    // Disagreeing voxel: the two boundaries are far apart near it when it lies deep on either
+    // side (a pit or a bulge: far from the object boundary; a bridged channel: far from the
+    // mesh boundary).
+    if (pre.distance_mm.data[v] <= tolerance_mm &&
+        to_mesh.squared_distance_mm2.data[v] <= tolerance2)
+      continue;
+    ++fix.disagreeing_voxels;
+    if (mesh_inside.data[v] && pre.indicator.data[v] < 0.5f)
+      fix.outside_points.push_back(grid.voxel_to_world(v));
+    // The object boundary nearest to it lies between it and its nearest opposite voxel.
+    const std::int32_t u = pre.nearest_opposite.data[v];
+    if (u < 0) continue;
+    const auto a = grid.ijk(v), b = grid.ijk(std::size_t(u));
+    Vec3 index{0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2])};
+    if (!project_to_level_set(pre.indicator, 0.5f, index, 1.5)) continue;
+    const Vec3 world = grid.index_to_world(index);
+    if (spaced.has_neighbour(world)) continue;
+    spaced.add(world);
+    fix.samples.push_back(world);
+  }
+  return fix;
+}
+
+MeshGenerationResult build_refined_mesh(const PreprocessResult& pre, const std::vector<Vec3>& surface,
+                                        const std::vector<Vec3>& interior,
+                                        const MeshGenerationOptions& generation,
+                                        const FidelityRefinementOptions& options,
+                                        const Progress& progress) {
+  const Grid& grid = pre.object.grid;
+  const double tolerance =
+      options.tolerance_mm > 0 ? options.tolerance_mm : 1.5 * largest(grid.spacing);
+  const double spacing =
+      options.sample_spacing_mm > 0
+          ? options.sample_spacing_mm
+          : std::max(options.r * pre.lfs_bounds.min_mm, 0.5 * smallest(grid.spacing));
+  const OccupancyFunction occupancy = indicator_occupancy(pre.indicator);
+  MeshGenerationOptions mesh_options = generation;
+  if (mesh_options.small_tet_edge_mm == 0) mesh_options.small_tet_edge_mm = 2 * largest(grid.spacing);
+
+  const auto check = [&](const MeshGenerationResult& m, const std::vector<Vec3>& b) {
+    progress("fidelity check", 0.95);
+    return find_fidelity_fix(voxelize(m.mesh, grid), pre, b, tolerance, spacing);
+  };
+
+  std::vector<Vec3> b = surface, i = interior;
+  MeshGenerationResult result = build_delaunay_mesh(b, i, occupancy, mesh_options, progress);
+  std::vector<FidelityRefinementRound> rounds;
+  std::vector<Vec3> added_all, dropped_all;
+  FidelityFix fix;
+  if (options.max_rounds > 0) fix = check(result, b);
+  for (int round = 0; round < options.max_rounds; ++round) {
+    FidelityRefinementRound r{fix.disagreeing_voxels, fix.samples.size(), 0, false};
+    if (fix.samples.empty() && fix.outside_points.empty()) {
+      rounds.push_back(r);
+      break;
+    }
+    // Interior samples this close to the new boundary samples would make slivers there.
+    SpacedPoints near(2.0 * spacing);
+    for (const Vec3& p : fix.samples) near.add(p);
+    std::vector<Vec3> kept, dropped;
+    kept.reserve(i.size());
+    for (const Vec3& p : i) (near.has_neighbour(p) ? dropped : kept).push_back(p);
+    r.dropped_interior = dropped.size();
+    std::vector<Vec3> next_b = b;
+    next_b.insert(next_b.end(), fix.samples.begin(), fix.samples.end());
+    MeshGenerationOptions next_options = mesh_options;
+    next_options.outside_points.insert(next_options.outside_points.end(),
+                                       fix.outside_points.begin(), fix.outside_points.end());
+    MeshGenerationResult next = build_delaunay_mesh(next_b, kept, occupancy, next_options, progress);
+    FidelityFix next_fix = check(next, next_b);
+    // A round must reduce the disagreement, or its mesh is dropped and refinement ends.
+    r.accepted = next_fix.disagreeing_voxels < fix.disagreeing_voxels;
+    rounds.push_back(r);
+    if (!r.accepted) break;
+    added_all.insert(added_all.end(), fix.samples.begin(), fix.samples.end());
+    dropped_all.insert(dropped_all.end(), dropped.begin(), dropped.end());
+    b = std::move(next_b);
+    i = std::move(kept);
+    mesh_options = std::move(next_options);
+    result = std::move(next);
+    fix = std::move(next_fix);
+  }
+  result.added_surface_samples = std::move(added_all);
+  result.dropped_interior_samples = std::move(dropped_all);
+  result.refinement = std::move(rounds);
+  return result;
+}
+
+}  // namespace cvt

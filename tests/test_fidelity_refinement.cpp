@@ -1,0 +1,146 @@
+// Fidelity refinement of stage 5: voxelising a mesh, finding where mesh and object disagree,
+// and the refined mesh of a block with a narrow slot (the liver's thin channels in miniature).
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "fidelity.h"
+#include "fidelity_refinement.h"
+#include "phantoms.h"
+#include "pipeline.h"
+#include "quality.h"
+#include "smoothing.h"
+
+using namespace cvt;
+
+namespace {
+
+// A box |x| ≤ 10, |y| ≤ 10, |z| ≤ 7 mm with a slot |x| < width/2, z > 7 − depth cut from the
+// top through the whole y extent (genus 0 either way). Sign-exact CSG distance.
+Phantom slotted_block(double width_mm, double depth_mm) {
+  Phantom p;
+  p.name = "slotted block";
+  p.center = {0, 0, 0};
+  p.radius = std::sqrt(10.0 * 10 + 10 * 10 + 7 * 7);
+  p.signed_distance = [=](const Vec3& w) {
+    const double box = std::max({std::abs(w.x) - 10, std::abs(w.y) - 10, std::abs(w.z) - 7});
+    const double slot = std::max(std::abs(w.x) - width_mm / 2, (7 - depth_mm) - w.z);
+    return std::max(box, -slot);
+  };
+  return p;
+}
+
+Image slotted_image() {
+  const Phantom p = slotted_block(1.25, 9.0);
+  return rasterize(p, grid_around(p, {0.6, 0.6, 1.3}, {1, 0, 0, 0, 1, 0, 0, 0, 1}));
+}
+
+struct SlotRun {
+  MeshGenerationResult mesh;
+  QualityReport quality;
+  FidelityReport fidelity;
+};
+
+SlotRun run(const Image& image, int rounds) {
+  Pipeline pipe;
+  pipe.set_image(std::make_shared<Image>(image));
+  Parameters params;
+  params.fidelity_rounds = rounds;
+  pipe.set_parameters(params);
+  pipe.run_through(Stage::mesh);
+  return {*pipe.mesh(), compute_quality(pipe.mesh()->mesh),
+          compute_fidelity(pipe.mesh()->mesh, pipe.preprocess()->object)};
+}
+
+}  // namespace
+
+TEST(Voxelize, SingleTetCoversExactlyTheCentresInside) {
+  Grid g;
+  g.dims = {6, 6, 6};
+  g.spacing = {0.5, 1.0, 2.0};
+  g.origin = {-1, 2, 3};
+  TetMesh m;
+  // The corner tet x/0.5 + y + z/2 ≤ 4 (in index units i + j + k ≤ 4) of the grid's first octant.
+  m.vertices = {g.index_to_world({0, 0, 0}), g.index_to_world({4, 0, 0}),
+                g.index_to_world({0, 4, 0}), g.index_to_world({0, 0, 4})};
+  m.tets = {{0, 1, 2, 3}};
+  const Mask inside = voxelize(m, g);
+  for (int k = 0; k < 6; ++k)
+    for (int j = 0; j < 6; ++j)
+      for (int i = 0; i < 6; ++i) EXPECT_EQ(inside.at(i, j, k), i + j + k <= 4 ? 1 : 0) << i << j << k;
+}
+
+TEST(FidelityFix, NothingWhereMeshAndObjectAgree) {
+  const Image image = slotted_image();
+  Pipeline pipe;
+  pipe.set_image(std::make_shared<Image>(image));
+  pipe.run_through(Stage::preprocess);
+  const PreprocessResult& pre = *pipe.preprocess();
+  const FidelityFix fix = find_fidelity_fix(pre.object, pre, {}, 1.0, 0.5);
+  EXPECT_EQ(fix.disagreeing_voxels, 0u);
+  EXPECT_TRUE(fix.samples.empty());
+  EXPECT_TRUE(fix.outside_points.empty());
+}
+
+TEST(FidelityFix, AFilledSlotGetsSamplesOnItsWallsAndOutsidePointsInside) {
+  const Image image = slotted_image();
+  Pipeline pipe;
+  pipe.set_image(std::make_shared<Image>(image));
+  pipe.run_through(Stage::preprocess);
+  const PreprocessResult& pre = *pipe.preprocess();
+  // A "mesh" that bridges the slot: the object with the slot filled.
+  Mask bridged = pre.object;
+  const Grid& g = bridged.grid;
+  for (std::size_t v = 0; v < bridged.size(); ++v) {
+    const Vec3 w = g.voxel_to_world(v);
+    if (std::abs(w.x) < 0.7 && std::abs(w.y) <= 10 && w.z > -2 && w.z <= 7) bridged.data[v] = 1;
+  }
+  const double spacing = 0.5;
+  const FidelityFix fix = find_fidelity_fix(bridged, pre, {}, 2.0, spacing);
+  EXPECT_GT(fix.disagreeing_voxels, 0u);
+  ASSERT_GT(fix.samples.size(), 10u);
+  ASSERT_GT(fix.outside_points.size(), 0u);
+  for (const Vec3& s : fix.samples) {
+    // On the slot's walls (x = ±0.625, smoothed) and inside its depth, on the 0.5 level.
+    EXPECT_NEAR(std::abs(s.x), 0.625, 0.35) << s.x << " " << s.y << " " << s.z;
+    EXPECT_GT(s.z, -2.5);
+    EXPECT_NEAR(sample_trilinear(pre.indicator, g.world_to_index(s)), 0.5, 1e-3);
+  }
+  for (std::size_t a = 0; a < fix.samples.size(); ++a)
+    for (std::size_t b = a + 1; b < fix.samples.size(); ++b)
+      EXPECT_GE(distance(fix.samples[a], fix.samples[b]), spacing);
+  for (const Vec3& p : fix.outside_points) EXPECT_LT(std::abs(p.x), 0.7);
+}
+
+TEST(FidelityRefinement, OpensANarrowSlotTheFirstMeshBridges) {
+  const Image image = slotted_image();
+  const SlotRun plain = run(image, 0), refined = run(image, 2);
+  for (const SlotRun* r : {&plain, &refined}) {
+    EXPECT_TRUE(r->quality.validity.valid);
+    EXPECT_TRUE(r->quality.validity.boundary.closed_manifold);
+  }
+  EXPECT_TRUE(plain.mesh.refinement.empty());
+  ASSERT_GE(refined.mesh.refinement.size(), 1u);
+  ASSERT_TRUE(refined.mesh.refinement[0].accepted);
+  // Each accepted round lowered the disagreement; samples were added on the way.
+  for (std::size_t k = 1; k < refined.mesh.refinement.size(); ++k)
+    EXPECT_LT(refined.mesh.refinement[k].disagreeing_voxels,
+              refined.mesh.refinement[k - 1].disagreeing_voxels);
+  EXPECT_GT(refined.mesh.added_surface_samples.size(), 0u);
+  // Closer to the object where it counts: the slot (7–8 mm deep) is no longer bridged.
+  EXPECT_GT(plain.fidelity.distance.hausdorff_mm, 3.0);
+  EXPECT_LT(refined.fidelity.distance.hausdorff_mm, 0.8 * plain.fidelity.distance.hausdorff_mm);
+  EXPECT_EQ(refined.fidelity.object_surface_euler, 2);
+  // Not asserted: the boundary's genus. On this coarse block, small tets removed along the
+  // slot's ends can open tunnels (Euler characteristic −2 here); the liver test checks it.
+}
+
+TEST(FidelityRefinement, SameInputSameMesh) {
+  const Image image = slotted_image();
+  const SlotRun a = run(image, 1), b = run(image, 1);
+  EXPECT_EQ(a.mesh.mesh.tets, b.mesh.mesh.tets);
+  ASSERT_EQ(a.mesh.mesh.vertices.size(), b.mesh.mesh.vertices.size());
+  for (std::size_t v = 0; v < a.mesh.mesh.vertices.size(); ++v)
+    EXPECT_EQ(distance(a.mesh.mesh.vertices[v], b.mesh.mesh.vertices[v]), 0.0);
+}
