@@ -16,6 +16,7 @@
 #include <zlib.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -138,9 +139,13 @@ NiftiHeader read_nifti_header(const std::string& path) {
     const std::int16_t dim0 = h.load<std::int16_t>(40);
     return dim0 != 0 ? dim0 >= 1 && dim0 <= 7 : h.load<std::int32_t>(0) == 348;
   };
+  h.swap = false;
+  const bool size_348 = h.load<std::int32_t>(0) == 348;
+  h.swap = true;
+  const bool swapped_size_348 = h.load<std::int32_t>(0) == 348;
   h.swap = !in_order(false) && in_order(true);
-  const std::int32_t size = h.load<std::int32_t>(0);
-  h.size = magic || size == 348 ? 348 : 0;
+  // niftilib also reads a header without the magic (as ANALYZE 7.5).
+  h.size = magic || size_348 || swapped_size_348 ? 348 : 0;
   return h;
 }
 
@@ -177,7 +182,8 @@ void require_complete_nifti(const std::string& path, std::size_t data_bytes) {
   if (std::isnan(vox_offset) || vox_offset > 1e15) {  // a float from the file, not yet a size
     throw InputError(path + ": corrupt NIfTI header (vox_offset " + number_text(vox_offset) + ")");
   }
-  if (vox_offset >= 0) require_complete_file(path, std::size_t(vox_offset) + data_bytes);
+  // niftilib reads data from offset 0 when vox_offset is negative (ANALYZE headers).
+  if (h.size) require_complete_file(path, std::size_t(std::max(vox_offset, 0.0)) + data_bytes);
 }
 
 // MetaIO parses its header into fixed buffers: a field name of 255 characters or more, or a
@@ -199,7 +205,19 @@ void require_sane_metaimage_header(const std::string& path) {
     if (separator == std::string::npos) fail("no '=' after the field name");
     std::string key = line.substr(begin, separator - begin);
     key.erase(key.find_last_not_of(" \t") + 1);
-    if (key == "ElementDataFile") return;  // the voxel data follows
+    if (key == "ElementDataFile") {
+      // MetaIO passes a numbered file pattern to snprintf as the format (with one int).
+      const std::string value = line.substr(separator + 1);
+      const std::size_t percent = value.find('%');
+      if (percent != std::string::npos) {
+        std::size_t end = percent + 1;
+        while (end < value.size() && std::isdigit(static_cast<unsigned char>(value[end]))) ++end;
+        if (end >= value.size() || value[end] != 'd' ||
+            value.find('%', percent + 1) != std::string::npos)
+          fail("a file pattern in ElementDataFile needs exactly one %d");
+      }
+      return;  // the voxel data follows
+    }
     if (key == "NDims") {
       char* end = nullptr;
       const double ndims = std::strtod(line.c_str() + separator + 1, &end);

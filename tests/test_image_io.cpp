@@ -12,6 +12,7 @@
 #include <unistd.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -438,6 +439,23 @@ TEST(ImageIO, CorruptHeadersFoundByFuzzing) {
   write_bytes(bad_type, "ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\n"
                         "ElementType = MET_BOGUS\nElementDataFile = LOCAL\n" + std::string(8, '\1'));
   expect_input_error(read(bad_type), bad_type, "pixel type");
+  // A numbered data file pattern is MetaIO's snprintf format: "%s" or "%L" crashed it.
+  const std::string format = dir / "format.mha";
+  write_bytes(format, "ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\n"
+                      "ElementDataFile = slice%s.raw 1 2 1\n");
+  expect_input_error(read(format), format, "exactly one %d");
+
+  // NIfTI without its magic (niftilib reads it as ANALYZE) announcing 1e9 voxels: refused
+  // before niftilib allocates them.
+  std::string analyze(352, '\0');
+  const std::int32_t header_size = 348;
+  const std::int16_t dims[4] = {3, 1000, 1000, 1000}, type[2] = {2, 8};
+  std::memcpy(analyze.data(), &header_size, 4);
+  std::memcpy(analyze.data() + 40, dims, sizeof dims);
+  std::memcpy(analyze.data() + 70, type, sizeof type);
+  write_bytes(dir / "analyze.nii", analyze + "0123456789");
+  expect_input_error(read(dir / "analyze.nii"), dir / "analyze.nii", "truncated");
+
   // NRRD: teem allocated and zeroed what the header announces (here 4.8 GB) before reading.
   const std::string gigavoxels = dir / "gigavoxels.nrrd";
   write_bytes(gigavoxels, "NRRD0004\ntype: int\ndimension: 3\nsizes: 1 597950803 2\n"
