@@ -159,7 +159,7 @@ TEST(BoundaryTriangles, OutwardClosedAndDeterministic) {
   EXPECT_EQ(boundary_triangles(m), tris);
 }
 
-TEST(BoundaryTriangles, MillionTetsAreFast) {
+TEST(BoundaryTriangles, AMillionTetsGiveTheBoxSurface) {
   const TetMesh m = kuhn_block(60, 60, 50, 0.5, Vec3{}, 30);
   ASSERT_GT(m.tets.size(), 1'000'000u);
   const auto start = std::chrono::steady_clock::now();
@@ -169,7 +169,7 @@ TEST(BoundaryTriangles, MillionTetsAreFast) {
   std::printf("boundary_triangles: %zu tets -> %zu triangles in %.3f s\n", m.tets.size(),
               tris.size(), seconds);
   EXPECT_EQ(tris.size(), std::size_t(4 * (60 * 60 + 60 * 50 + 60 * 50)));
-  EXPECT_LT(seconds, 5.0);  // ~0.1 s in Release; generous for Debug and busy machines
+  // Its speed belongs to bench/, not to an assertion here.
 }
 
 TEST_F(MeshIo, EveryFormatIsReadByMeshio) {

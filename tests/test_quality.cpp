@@ -275,7 +275,7 @@ TEST(Quality, EmptyMeshIsReportedNotValid) {
   EXPECT_NO_THROW(to_json(rep).dump());
 }
 
-TEST(Quality, AMillionTetsInWellUnderASecond) {
+TEST(Quality, AMillionTetsAreCheckedWhole) {
   Grid g;
   g.dims = {72, 72, 72};
   g.spacing = {0.6, 0.6, 1.3};
@@ -298,7 +298,5 @@ TEST(Quality, AMillionTetsInWellUnderASecond) {
               seconds);
   EXPECT_TRUE(rep.validity.valid);
   EXPECT_EQ(rep.validity.boundary.euler_characteristic, 2);
-#ifdef NDEBUG
-  EXPECT_LT(seconds, 3.0);  // generous: shared CI machines
-#endif
+  // Its speed is measured in bench/ (bench_kernels), not asserted here.
 }
