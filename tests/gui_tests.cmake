@@ -47,8 +47,9 @@ if(EXISTS ${CVT_LIVER})
     ${CVT_GUI_OUT}/liver_optimized.png 1280 800 0.3 300
     ${CVT_LIVER} --run-all --optimize-passes -1 --view 3d --clip 0.5
     --colour-by min_dihedral_deg --screenshot-ui)
-  set_tests_properties(test_gui_liver_cutaway test_gui_liver_voronoi test_gui_liver_optimized
-    PROPERTIES TIMEOUT 180)
+  set_tests_properties(test_gui_liver_cutaway test_gui_liver_voronoi PROPERTIES TIMEOUT 180)
+  # Stage 5 twice (once without, once with stage 6) and ten snapshots of the mesh.
+  set_tests_properties(test_gui_liver_optimized PROPERTIES TIMEOUT 300)
 else()
   message(STATUS "${CVT_LIVER} missing (scripts/fetch-data): the liver viewer tests are skipped")
 endif()
