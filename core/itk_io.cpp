@@ -25,6 +25,7 @@
 #include <fstream>
 #include <mutex>
 #include <new>
+#include <set>
 #include <vector>
 
 #include "errors.h"
@@ -129,23 +130,18 @@ NiftiHeader read_nifti_header(const std::string& path) {
       return h;
     }
   }
-  // NIfTI-1 as niftilib sees it: its magic or sizeof_hdr, in the byte order that makes dim[0]
-  // 1..7 (sizeof_hdr decides only when dim[0] is 0), as niftilib's need_nhdr_swap does.
+  // Anything else of 348 bytes or more is taken as NIfTI-1 (or ANALYZE 7.5): niftilib accepts
+  // more magics and sizes than the standard names, and a stricter test here let such headers
+  // past the checks. The byte order is the one that makes dim[0] 1..7 (sizeof_hdr decides
+  // when dim[0] is 0), as niftilib's need_nhdr_swap does.
   if (got < 348) return h;
-  const bool magic = std::memcmp(h.bytes + 344, "n+1", 4) == 0 ||
-                     std::memcmp(h.bytes + 344, "ni1", 4) == 0;
   const auto in_order = [&](bool swap) {
     h.swap = swap;
     const std::int16_t dim0 = h.load<std::int16_t>(40);
     return dim0 != 0 ? dim0 >= 1 && dim0 <= 7 : h.load<std::int32_t>(0) == 348;
   };
-  h.swap = false;
-  const bool size_348 = h.load<std::int32_t>(0) == 348;
-  h.swap = true;
-  const bool swapped_size_348 = h.load<std::int32_t>(0) == 348;
   h.swap = !in_order(false) && in_order(true);
-  // niftilib also reads a header without the magic (as ANALYZE 7.5).
-  h.size = magic || size_348 || swapped_size_348 ? 348 : 0;
+  h.size = 348;
   return h;
 }
 
@@ -189,22 +185,29 @@ void require_complete_nifti(const std::string& path, std::size_t data_bytes) {
 // MetaIO parses its header into fixed buffers: a field name of 255 characters or more, or a
 // value that long (Name, Comment), overflows them, and NDims sizes arrays of 10 dimensions and
 // 4096 values. A header line without '=' or ':' can make it read on into the voxel data as
-// header. All of these are refused before MetaIO sees the file.
+// header; control characters and repeated fields corrupted its heap. All of these are refused
+// before MetaIO sees the file.
 void require_sane_metaimage_header(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   std::string line;
+  std::set<std::string> keys;
   for (int number = 1; std::getline(in, line); ++number) {
     const auto fail = [&](const std::string& why) {
       throw InputError(path + ": bad MetaImage header line " + std::to_string(number) + " (" +
                        why + ")");
     };
     if (line.size() >= 255) fail("longer than 254 characters");
+    // MetaIO handles neither well: it corrupted its heap on such a header.
+    for (char c : line)
+      if (std::iscntrl(static_cast<unsigned char>(c)) && c != '\t' && c != '\r')
+        fail("control character");
     const std::size_t begin = line.find_first_not_of(" \t\r\v\f");
     if (begin == std::string::npos) continue;
     const std::size_t separator = line.find_first_of("=:", begin);
     if (separator == std::string::npos) fail("no '=' after the field name");
     std::string key = line.substr(begin, separator - begin);
     key.erase(key.find_last_not_of(" \t") + 1);
+    if (!keys.insert(key).second) fail("'" + key + "' given twice");
     if (key == "ElementDataFile") {
       // MetaIO passes a numbered file pattern to snprintf as the format (with one int).
       const std::string value = line.substr(separator + 1);
@@ -268,6 +271,20 @@ void require_complete_metaimage(const std::string& path, std::size_t data_bytes)
   if (have < needed) {
     throw InputError(path + ": truncated (" + std::to_string(have) + " of " +
                      std::to_string(needed) + " bytes of voxel data)");
+  }
+}
+
+// teem overflows a stack buffer (stack smashing, abort) on a header line of about 1000
+// characters or more: refused first, with a margin; real headers keep lines far shorter.
+void require_sane_nrrd_header(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  std::string line;
+  for (int number = 1; std::getline(in, line); ++number) {
+    if (line.size() >= 900) {
+      throw InputError(path + ": bad NRRD header line " + std::to_string(number) +
+                       " (longer than 899 characters)");
+    }
+    if (line.empty() || line == "\r") return;  // the data follows
   }
 }
 
@@ -461,6 +478,7 @@ Image read_image_itk(const std::string& path, const ReadOptions& options) {
   const std::string ext = image_extension(path);
   if (ext == "nii" || ext == "nii.gz") require_finite_nifti_geometry(path);
   if (ext == "mha" || ext == "mhd") require_sane_metaimage_header(path);
+  if (ext == "nrrd" || ext == "nhdr") require_sane_nrrd_header(path);
   // The reader named by the extension only: ITK's factory would hand a file its own reader
   // refuses to the next one that accepts it, GDCM included, which then parses a damaged
   // .mha as DICOM.

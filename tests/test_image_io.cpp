@@ -456,6 +456,16 @@ TEST(ImageIO, CorruptHeadersFoundByFuzzing) {
   write_bytes(dir / "analyze.nii", analyze + "0123456789");
   expect_input_error(read(dir / "analyze.nii"), dir / "analyze.nii", "truncated");
 
+  // MetaIO corrupted its heap on a header that repeats a field (among other damage).
+  const std::string twice = mha("twice.mha", "3", "NDims = 4\n");
+  expect_input_error(read(twice), twice, "'NDims' given twice");
+  // teem smashed its stack on a header line of about 1000 characters.
+  const std::string long_line = dir / "long_line.nrrd";
+  write_bytes(long_line, "NRRD0004\ntype: " + std::string(1000, 'x') +
+                             "\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n\n" +
+                             std::string(8, '\1'));
+  expect_input_error(read(long_line), long_line, "bad NRRD header line 2");
+
   // NRRD: teem allocated and zeroed what the header announces (here 4.8 GB) before reading.
   const std::string gigavoxels = dir / "gigavoxels.nrrd";
   write_bytes(gigavoxels, "NRRD0004\ntype: int\ndimension: 3\nsizes: 1 597950803 2\n"
