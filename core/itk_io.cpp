@@ -211,6 +211,7 @@ void require_sane_metaimage_header(const std::string& path) {
     if (key == "ElementDataFile") {
       // MetaIO passes a numbered file pattern to snprintf as the format (with one int).
       const std::string value = line.substr(separator + 1);
+      if (value.find_first_not_of(" \t\r") == std::string::npos) fail("ElementDataFile is empty");
       const std::size_t percent = value.find('%');
       if (percent != std::string::npos) {
         std::size_t end = percent + 1;
@@ -242,14 +243,18 @@ void require_complete_metaimage(const std::string& path, std::size_t data_bytes)
     const auto b = t.find_first_not_of(" \t\r"), e = t.find_last_not_of(" \t\r");
     return b == std::string::npos ? std::string() : t.substr(b, e - b + 1);
   };
-  while (data_file.empty() && std::getline(in, line)) {
+  bool found_data_file = false;
+  while (!found_data_file && std::getline(in, line)) {
     const std::size_t eq = line.find_first_of("=:");  // MetaIO's two separators
     if (eq == std::string::npos) continue;
     const std::string key = trim(line.substr(0, eq)), value = trim(line.substr(eq + 1));
     // MetaIO looks at the first character only.
     if (key == "CompressedData") compressed = !value.empty() && std::strchr("Tt1", value[0]);
     if (key == "CompressedDataSize") compressed_size = std::strtod(value.c_str(), nullptr);
-    if (key == "ElementDataFile") data_file = value;
+    if (key == "ElementDataFile") {
+      data_file = value;
+      found_data_file = true;
+    }
   }
   if (compressed && !(compressed_size >= 1 && compressed_size <= 1e18))
     throw InputError(path + ": compressed MetaImage without a valid CompressedDataSize");
@@ -334,7 +339,9 @@ void require_complete_nrrd(const std::string& path, std::size_t data_bytes, std:
     if (colon == std::string::npos) continue;
     std::string value = line.substr(colon + 1);
     if (!value.empty() && value[0] == '=') continue;  // a key/value pair, not a field
+    value.erase(std::min(value.size(), value.find('\0')));  // teem reads C strings
     value.erase(0, value.find_first_not_of(" \t"));
+    value.erase(std::min(value.size(), value.find_last_not_of(" \t") + 1));
     const std::string key = line.substr(0, colon);
     if (key == "encoding") encoding = value;
     if (key == "byte skip") byte_skip = std::atoll(value.c_str());
@@ -366,9 +373,9 @@ void require_complete_nrrd(const std::string& path, std::size_t data_bytes, std:
     needed = 2 * values - 1;  // a digit per value and a separator between them, at least
   } else if (encoding == "hex") {
     needed = 2 * data_bytes;
-  } else if (encoding != "raw") {
-    return;  // bzip2 and anything else: teem judges
-  }
+  } else if (encoding == "bzip2" || encoding == "bz2" || encoding == "zrl") {
+    return;  // no bound on what these expand to: teem judges
+  }  // anything else is raw, or refused by teem before it allocates
   if (have < needed) {
     throw InputError(path + ": truncated (" + std::to_string(have) + " of " +
                      std::to_string(needed) + " bytes of " + encoding + " voxel data)");

@@ -459,6 +459,18 @@ TEST(ImageIO, CorruptHeadersFoundByFuzzing) {
   // MetaIO corrupted its heap on a header that repeats a field (among other damage).
   const std::string twice = mha("twice.mha", "3", "NDims = 4\n");
   expect_input_error(read(twice), twice, "'NDims' given twice");
+  // An empty ElementDataFile made MetaIO size a buffer from a failed stream (-1 bytes).
+  const std::string no_file = dir / "no_file.mha";
+  write_bytes(no_file, "ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\n"
+                       "ElementDataFile = \n");
+  expect_input_error(read(no_file), no_file, "ElementDataFile is empty");
+  // teem reads "raw\0junk" as raw: the data check must too (it skipped the file, then teem
+  // allocated 7 GB).
+  const std::string nul = dir / "nul.nrrd";
+  write_bytes(nul, "NRRD0004\ntype: double\ndimension: 3\nsizes: 444444442 2 1\n"
+                  "endian: little\nencoding: raw" + std::string(1, '\0') + "x\n\n" +
+                  std::string(8, '\1'));
+  expect_input_error(read(nul), nul, "truncated");
   // teem smashed its stack on a header line of about 1000 characters.
   const std::string long_line = dir / "long_line.nrrd";
   write_bytes(long_line, "NRRD0004\ntype: " + std::string(1000, 'x') +
