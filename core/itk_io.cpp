@@ -26,6 +26,7 @@
 #include <mutex>
 #include <new>
 #include <set>
+#include <sstream>
 #include <vector>
 
 #include "errors.h"
@@ -219,6 +220,13 @@ void require_sane_metaimage_header(const std::string& path) {
         if (end >= value.size() || value[end] != 'd' ||
             value.find('%', percent + 1) != std::string::npos)
           fail("a file pattern in ElementDataFile needs exactly one %d");
+        // "pattern first last step": MetaIO divides by the step (0 crashed it).
+        std::istringstream words(value);
+        std::string pattern;
+        long long first = 0, last = -1, step = 0;
+        if (!(words >> pattern >> first >> last >> step) || step < 1 || last < first ||
+            (last - first) / step > 100000)
+          fail("ElementDataFile pattern needs whole numbers first <= last and step >= 1");
       }
       return;  // the voxel data follows
     }

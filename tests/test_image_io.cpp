@@ -445,6 +445,11 @@ TEST(ImageIO, CorruptHeadersFoundByFuzzing) {
                       "ElementDataFile = slice%s.raw 1 2 1\n");
   expect_input_error(read(format), format, "exactly one %d");
 
+  const std::string zero_step = dir / "zero_step.mha";
+  write_bytes(zero_step, "ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\n"
+                         "ElementType = MET_UCHAR\nElementDataFile = slice%d.raw 1 2 0\n");
+  expect_input_error(read(zero_step), zero_step, "step >= 1");
+
   // NIfTI without its magic (niftilib reads it as ANALYZE) announcing 1e9 voxels: refused
   // before niftilib allocates them.
   std::string analyze(352, '\0');
