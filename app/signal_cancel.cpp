@@ -12,7 +12,7 @@
 namespace cvt::cli {
 namespace {
 
-constexpr auto kGrace = std::chrono::milliseconds(500);
+constexpr auto kGrace = std::chrono::milliseconds(250);
 constexpr char kMessage[] = "cvtmesh: cancelled; nothing was written\n";
 
 std::atomic<bool> interrupted{false};

@@ -2,8 +2,9 @@
 // temp file is left behind and the exit is clean. Stages check the flag between steps; some
 // steps (a CGAL triangulation, the fidelity sampling, an optimisation pass) run for seconds
 // without a check, so a watchdog ends the process itself (exit 130, one line) when the run
-// has not stopped half a second after the signal. Nothing is on disk before the outputs are
-// written, and the watchdog waits while they are (WritingOutputs).
+// has not stopped a quarter of a second after the signal (exiting a big process takes some
+// too). Nothing is on disk before the outputs are written, and the watchdog waits while they
+// are (WritingOutputs).
 #pragma once
 
 #include <atomic>
