@@ -155,8 +155,8 @@ void require_finite_nifti_geometry(const std::string& path) {
     const char* name;
     int offset, count;
   };
-  static constexpr Field kFields[] = {{"pixdim", 76, 4}, {"quatern", 256, 3}, {"qoffset", 268, 3},
-                                      {"srow", 280, 12}};
+  static constexpr Field kFields[] = {
+      {"pixdim", 76, 4}, {"quatern", 256, 3}, {"qoffset", 268, 3}, {"srow", 280, 12}};
   for (const Field& field : kFields) {
     for (int i = 0; i < field.count; ++i) {
       const float v = h.load<float>(field.offset + 4 * i);
@@ -194,8 +194,8 @@ void require_sane_metaimage_header(const std::string& path) {
   std::set<std::string> keys;
   for (int number = 1; std::getline(in, line); ++number) {
     const auto fail = [&](const std::string& why) {
-      throw InputError(path + ": bad MetaImage header line " + std::to_string(number) + " (" +
-                       why + ")");
+      throw InputError(path + ": bad MetaImage header line " + std::to_string(number) + " (" + why +
+                       ")");
     };
     if (line.size() >= 255) fail("longer than 254 characters");
     // MetaIO handles neither well: it corrupted its heap on such a header.
@@ -204,15 +204,25 @@ void require_sane_metaimage_header(const std::string& path) {
         fail("control character");
     const std::size_t begin = line.find_first_not_of(" \t\r\v\f");
     if (begin == std::string::npos) continue;
+    // MetaIO's field name also ends at a carriage return; its value starts after the next
+    // '=' or ':'.
+    const std::size_t name_end = line.find_first_of("=:\r", begin);
     const std::size_t separator = line.find_first_of("=:", begin);
     if (separator == std::string::npos) fail("no '=' after the field name");
-    std::string key = line.substr(begin, separator - begin);
+    std::string key = line.substr(begin, name_end - begin);
     key.erase(key.find_last_not_of(" \t") + 1);
     if (!keys.insert(key).second) fail("'" + key + "' given twice");
     if (key == "ElementDataFile") {
       // MetaIO passes a numbered file pattern to snprintf as the format (with one int).
       const std::string value = line.substr(separator + 1);
       if (value.find_first_not_of(" \t\r") == std::string::npos) fail("ElementDataFile is empty");
+      // MetaIO joins the name to the header's folder in fixed buffers (a long or non-ASCII
+      // name overflowed one).
+      for (char c : value)
+        if (c != '\t' && c != '\r' && (c < 0x20 || c > 0x7e))
+          fail("ElementDataFile is not plain ASCII");
+      if (std::filesystem::path(path).parent_path().string().size() + value.size() >= 200)
+        fail("ElementDataFile path too long");
       const std::size_t percent = value.find('%');
       if (percent != std::string::npos) {
         std::size_t end = percent + 1;
@@ -268,8 +278,7 @@ void require_complete_metaimage(const std::string& path, std::size_t data_bytes)
     throw InputError(path + ": compressed MetaImage without a valid CompressedDataSize");
   const std::size_t needed = compressed ? std::size_t(compressed_size) : data_bytes;
   // Lists and numbered file patterns are left to MetaIO.
-  if (data_file.empty() || data_file == "LIST" || data_file.find('%') != std::string::npos)
-    return;
+  if (data_file.empty() || data_file == "LIST" || data_file.find('%') != std::string::npos) return;
   std::error_code ec;
   std::size_t have = 0;
   if (data_file == "LOCAL") {
@@ -346,7 +355,7 @@ void require_complete_nrrd(const std::string& path, std::size_t data_bytes, std:
     const std::size_t colon = line.find(':');
     if (colon == std::string::npos) continue;
     std::string value = line.substr(colon + 1);
-    if (!value.empty() && value[0] == '=') continue;  // a key/value pair, not a field
+    if (!value.empty() && value[0] == '=') continue;        // a key/value pair, not a field
     value.erase(std::min(value.size(), value.find('\0')));  // teem reads C strings
     value.erase(0, value.find_first_not_of(" \t"));
     value.erase(std::min(value.size(), value.find_last_not_of(" \t") + 1));
@@ -383,7 +392,8 @@ void require_complete_nrrd(const std::string& path, std::size_t data_bytes, std:
     needed = 2 * data_bytes;
   } else if (encoding == "bzip2" || encoding == "bz2" || encoding == "zrl") {
     return;  // no bound on what these expand to: teem judges
-  }  // anything else is raw, or refused by teem before it allocates
+  }
+  // Anything else is raw, or an encoding teem refuses before it allocates.
   if (have < needed) {
     throw InputError(path + ": truncated (" + std::to_string(have) + " of " +
                      std::to_string(needed) + " bytes of " + encoding + " voxel data)");

@@ -436,18 +436,22 @@ TEST(ImageIO, CorruptHeadersFoundByFuzzing) {
   const std::string no_size = mha("no_size.mha", "3", "CompressedData = True\n");
   expect_input_error(read(no_size), no_size, "CompressedDataSize");
   const std::string bad_type = dir / "bad_type.mha";
-  write_bytes(bad_type, "ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\n"
-                        "ElementType = MET_BOGUS\nElementDataFile = LOCAL\n" + std::string(8, '\1'));
+  write_bytes(bad_type,
+              "ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\n"
+              "ElementType = MET_BOGUS\nElementDataFile = LOCAL\n" +
+                  std::string(8, '\1'));
   expect_input_error(read(bad_type), bad_type, "pixel type");
   // A numbered data file pattern is MetaIO's snprintf format: "%s" or "%L" crashed it.
   const std::string format = dir / "format.mha";
-  write_bytes(format, "ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\n"
-                      "ElementDataFile = slice%s.raw 1 2 1\n");
+  write_bytes(format,
+              "ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\n"
+              "ElementDataFile = slice%s.raw 1 2 1\n");
   expect_input_error(read(format), format, "exactly one %d");
 
   const std::string zero_step = dir / "zero_step.mha";
-  write_bytes(zero_step, "ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\n"
-                         "ElementType = MET_UCHAR\nElementDataFile = slice%d.raw 1 2 0\n");
+  write_bytes(zero_step,
+              "ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\n"
+              "ElementType = MET_UCHAR\nElementDataFile = slice%d.raw 1 2 0\n");
   expect_input_error(read(zero_step), zero_step, "step >= 1");
 
   // NIfTI without its magic (niftilib reads it as ANALYZE) announcing 1e9 voxels: refused
@@ -466,15 +470,17 @@ TEST(ImageIO, CorruptHeadersFoundByFuzzing) {
   expect_input_error(read(twice), twice, "'NDims' given twice");
   // An empty ElementDataFile made MetaIO size a buffer from a failed stream (-1 bytes).
   const std::string no_file = dir / "no_file.mha";
-  write_bytes(no_file, "ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\n"
-                       "ElementDataFile = \n");
+  write_bytes(no_file,
+              "ObjectType = Image\nNDims = 3\nDimSize = 2 2 2\nElementType = MET_UCHAR\n"
+              "ElementDataFile = \n");
   expect_input_error(read(no_file), no_file, "ElementDataFile is empty");
   // teem reads "raw\0junk" as raw: the data check must too (it skipped the file, then teem
   // allocated 7 GB).
   const std::string nul = dir / "nul.nrrd";
-  write_bytes(nul, "NRRD0004\ntype: double\ndimension: 3\nsizes: 444444442 2 1\n"
-                  "endian: little\nencoding: raw" + std::string(1, '\0') + "x\n\n" +
-                  std::string(8, '\1'));
+  write_bytes(nul,
+              "NRRD0004\ntype: double\ndimension: 3\nsizes: 444444442 2 1\n"
+              "endian: little\nencoding: raw" +
+                  std::string(1, '\0') + "x\n\n" + std::string(8, '\1'));
   expect_input_error(read(nul), nul, "truncated");
   // teem smashed its stack on a header line of about 1000 characters.
   const std::string long_line = dir / "long_line.nrrd";
@@ -485,18 +491,23 @@ TEST(ImageIO, CorruptHeadersFoundByFuzzing) {
 
   // NRRD: teem allocated and zeroed what the header announces (here 4.8 GB) before reading.
   const std::string gigavoxels = dir / "gigavoxels.nrrd";
-  write_bytes(gigavoxels, "NRRD0004\ntype: int\ndimension: 3\nsizes: 1 597950803 2\n"
-                          "endian: little\nencoding: raw\n\n" + std::string(27, '\1'));
+  write_bytes(gigavoxels,
+              "NRRD0004\ntype: int\ndimension: 3\nsizes: 1 597950803 2\n"
+              "endian: little\nencoding: raw\n\n" +
+                  std::string(27, '\1'));
   expect_input_error(read(gigavoxels), gigavoxels, "truncated (27 of 4783606424 bytes");
   const std::string gz_claim = dir / "gz_claim.nrrd";
-  write_bytes(gz_claim, "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 1000 1000 1000\n"
-                        "encoding: gzip\n\n" + std::string(30, '\0'));
+  write_bytes(gz_claim,
+              "NRRD0004\ntype: uchar\ndimension: 3\nsizes: 1000 1000 1000\n"
+              "encoding: gzip\n\n" +
+                  std::string(30, '\0'));
   expect_input_error(read(gz_claim), gz_claim, "gzip voxel data");
 
   // INRIMAGE: CGAL reads no field after a '#' comment line, so neither do we (CPU, TYPE unset).
   const std::string commented = dir / "commented.inr";
-  std::string inr = "#INRIMAGE-4#{\nXDIM=2\nYDIM=2\nZDIM=2\nVDIM=1\n#a comment\n"
-                    "TYPE=unsigned fixed\nPIXSIZE=8 bits\nCPU=decm\nVX=1\nVY=1\nVZ=1\n";
+  std::string inr =
+      "#INRIMAGE-4#{\nXDIM=2\nYDIM=2\nZDIM=2\nVDIM=1\n#a comment\n"
+      "TYPE=unsigned fixed\nPIXSIZE=8 bits\nCPU=decm\nVX=1\nVY=1\nVZ=1\n";
   inr += std::string(252 - inr.size(), '\n') + "##}\n" + std::string(8, '\1');
   write_bytes(commented, inr);
   expect_input_error(read(commented), commented, "lacks a known CPU");

@@ -20,8 +20,8 @@ namespace cvt::fuzz {
 inline std::string input_path(const std::string& extension) {
   namespace fs = std::filesystem;
   std::error_code ec;
-  const fs::path base = fs::is_directory("/dev/shm", ec) ? fs::path("/dev/shm")
-                                                          : fs::temp_directory_path();
+  const fs::path base =
+      fs::is_directory("/dev/shm", ec) ? fs::path("/dev/shm") : fs::temp_directory_path();
   const fs::path dir = base / ("cvtmesh-fuzz-" + std::to_string(::getpid()));
   fs::create_directories(dir, ec);
   return (dir / ("input" + extension)).string();

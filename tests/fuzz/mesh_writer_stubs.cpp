@@ -12,14 +12,32 @@ namespace {
 }
 }  // namespace
 
-void write_medit(const TetMesh&, AtomicOutput&) { not_in_fuzz_build(); }
-void write_vtu(const TetMesh&, const MeshWriteOptions&, AtomicOutput&) { not_in_fuzz_build(); }
-void write_gmsh(const TetMesh&, AtomicOutput&) { not_in_fuzz_build(); }
-void write_abaqus(const TetMesh&, AtomicOutput&) { not_in_fuzz_build(); }
-void write_febio(const TetMesh&, AtomicOutput&) { not_in_fuzz_build(); }
-void write_tetgen(const TetMesh&, AtomicOutput&, AtomicOutput&) { not_in_fuzz_build(); }
-void write_stl(const TetMesh&, AtomicOutput&) { not_in_fuzz_build(); }
-void write_ply(const TetMesh&, AtomicOutput&) { not_in_fuzz_build(); }
-void write_obj(const TetMesh&, AtomicOutput&) { not_in_fuzz_build(); }
+void write_medit(const TetMesh&, AtomicOutput&) {
+  not_in_fuzz_build();
+}
+void write_vtu(const TetMesh&, const MeshWriteOptions&, AtomicOutput&) {
+  not_in_fuzz_build();
+}
+void write_gmsh(const TetMesh&, AtomicOutput&) {
+  not_in_fuzz_build();
+}
+void write_abaqus(const TetMesh&, AtomicOutput&) {
+  not_in_fuzz_build();
+}
+void write_febio(const TetMesh&, AtomicOutput&) {
+  not_in_fuzz_build();
+}
+void write_tetgen(const TetMesh&, AtomicOutput&, AtomicOutput&) {
+  not_in_fuzz_build();
+}
+void write_stl(const TetMesh&, AtomicOutput&) {
+  not_in_fuzz_build();
+}
+void write_ply(const TetMesh&, AtomicOutput&) {
+  not_in_fuzz_build();
+}
+void write_obj(const TetMesh&, AtomicOutput&) {
+  not_in_fuzz_build();
+}
 
 }  // namespace cvt::detail

@@ -1,6 +1,7 @@
 // Runs a fuzz target, built with the normal compiler, on every file of the folders (or files)
-// given (missing ones are skipped): the committed seed corpus and past crashes replay in ctest without clang or libFuzzer.
-// A finding (an unexpected exception, a crash) fails the run like it would under the fuzzer.
+// given (missing ones are skipped): the committed seed corpus and past crashes replay in ctest
+// without clang or libFuzzer. A finding (an unexpected exception, a crash) fails the run like it
+// would under the fuzzer.
 #include <algorithm>
 #include <cstdint>
 #include <cstdio>
