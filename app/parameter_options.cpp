@@ -6,7 +6,7 @@
 
 namespace cvt::cli {
 
-ParameterOptions::ParameterOptions(CLI::App* cmd) {
+ParameterOptions::ParameterOptions(CLI::App* cmd, Scope scope) {
   // Each bound option copies its parsed value into the resolved parameters only when given.
   auto bind = [&](CLI::Option* opt, auto member) {
     bindings_.push_back({opt, [this, member](Parameters& p) { p.*member = given_.*member; }});
@@ -30,6 +30,7 @@ ParameterOptions::ParameterOptions(CLI::App* cmd) {
   bind(cmd->add_option("--min-component-fraction", given_.min_component_fraction,
                        "Components smaller than this fraction of the largest are dropped"),
        &Parameters::min_component_fraction);
+  if (scope == Scope::object) return;
   bind(cmd->add_option("--smoothing-sigma", given_.smoothing_sigma_mm,
                        "σ (mm) of the smoothed indicator; 0 = auto"),
        &Parameters::smoothing_sigma_mm);

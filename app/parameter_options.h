@@ -14,8 +14,12 @@ namespace cvt::cli {
 
 class ParameterOptions {
  public:
+  enum class Scope {
+    all,     // every parameter (`mesh`)
+    object,  // --preset and the object's selection and clean-up only (`quality --image`)
+  };
   // Registers --labels, --iso, --inside, --r, ... on `cmd`.
-  explicit ParameterOptions(CLI::App* cmd);
+  explicit ParameterOptions(CLI::App* cmd, Scope scope = Scope::all);
   // Defaults ← preset file (if --preset) ← options given. Throws InputError on bad values.
   Parameters resolve() const;
 

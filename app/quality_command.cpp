@@ -17,7 +17,7 @@
 #include "fidelity.h"
 #include "image_io.h"
 #include "mesh_io.h"
-#include "object_selection.h"
+#include "parameter_options.h"
 #include "pipeline.h"
 #include "preset.h"
 #include "quality.h"
@@ -26,26 +26,11 @@ namespace cvt::cli {
 namespace {
 
 struct QualityArgs {
-  std::string mesh, image, labels = "all", inside = "above", preset;
-  double iso = 0;
-  Parameters given;  // the clean-up options CLI11 parsed into
-  // Each option given on the command line overrides the preset (or the defaults).
-  std::vector<std::pair<CLI::Option*, std::function<void(Parameters&)>>> bindings;
+  std::string mesh, image;
+  // The object and its clean-up, named, defaulted and resolved as in `cvtmesh mesh`.
+  std::unique_ptr<ParameterOptions> object;
   bool json = false;
 };
-
-// Defaults ← preset ← options given: the object selection and clean-up of `cvtmesh mesh`.
-Parameters resolve_parameters(const QualityArgs& args) {
-  Parameters p = args.preset.empty() ? Parameters{} : load_preset(args.preset);
-  for (const auto& [opt, apply] : args.bindings)
-    if (opt->count() > 0) apply(p);
-  try {
-    validate(p);
-  } catch (const InputError& e) {
-    throw InputError(std::string("parameter ") + e.what());
-  }
-  return p;
-}
 
 void print_text(const QualityReport& q, const FidelityReport* f) {
   std::printf("tets %zu, vertices %zu, volume %.3f mm^3\n", q.tets, q.vertices, q.volume_mm3);
@@ -78,7 +63,7 @@ void run(const QualityArgs& args) {
   const QualityReport q = compute_quality(mesh);
   std::unique_ptr<FidelityReport> f;
   if (!args.image.empty()) {
-    const PreprocessOptions pre = preprocess_options(resolve_parameters(args));
+    const PreprocessOptions pre = preprocess_options(args.object->resolve());
     const Mask object = fidelity_object(read_image(args.image), pre.selection, pre.cleanup);
     f = std::make_unique<FidelityReport>(compute_fidelity(mesh, object));
   }
@@ -98,31 +83,7 @@ void add_quality_command(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("quality", "Quality, validity and fidelity of a .mesh/.vtu");
   cmd->add_option("MESH", args->mesh, "Tet mesh (.mesh or .vtu)")->required();
   cmd->add_option("--image", args->image, "Segmentation to measure fidelity against");
-  // The object and its clean-up, named and defaulted as in `cvtmesh mesh`.
-  QualityArgs& a = *args;
-  auto bind = [&a](CLI::Option* opt, auto member) {
-    a.bindings.push_back({opt, [&a, member](Parameters& p) { p.*member = a.given.*member; }});
-  };
-  cmd->add_option("--preset", a.preset, "Parameter preset of the run (its selection and clean-up)");
-  a.bindings.push_back(
-      {cmd->add_option("--labels", a.labels, "Object labels in the image: all | L1,L2,..."),
-       [&a](Parameters& p) { p.labels = parse_label_list(a.labels); }});
-  a.bindings.push_back({cmd->add_option("--iso", a.iso, "Grey image: threshold of the object"),
-                        [&a](Parameters& p) { p.iso = a.iso; }});
-  a.bindings.push_back({cmd->add_option("--inside", a.inside, "With --iso: above | below")
-                            ->check(CLI::IsMember({"above", "below"})),
-                        [&a](Parameters& p) { p.inside_above = a.inside == "above"; }});
-  bind(cmd->add_option("--margin", a.given.margin_voxels, "Background voxels kept around the object"),
-       &Parameters::margin_voxels);
-  bind(cmd->add_option("--fill-cavities", a.given.fill_cavities,
-                       "Fill enclosed background (true/false)"),
-       &Parameters::fill_cavities);
-  bind(cmd->add_option("--remove-small-components", a.given.remove_small_components,
-                       "Drop small object components (true/false)"),
-       &Parameters::remove_small_components);
-  bind(cmd->add_option("--min-component-fraction", a.given.min_component_fraction,
-                       "Components smaller than this fraction of the largest are dropped"),
-       &Parameters::min_component_fraction);
+  args->object = std::make_unique<ParameterOptions>(cmd, ParameterOptions::Scope::object);
   cmd->add_flag("--json", args->json, "Print JSON");
   cmd->callback([args] { run(*args); });
 }
