@@ -1,5 +1,8 @@
 #include "parameter_options.h"
 
+#include <algorithm>
+#include <string>
+
 #include "errors.h"
 #include "object_selection.h"
 #include "preset.h"
@@ -75,6 +78,22 @@ ParameterOptions::ParameterOptions(CLI::App* cmd, Scope scope) {
   bind(cmd->add_option("--optimize", given_.optimize, "Mesh optimisation: none | default")
            ->check(CLI::IsMember({"none", "default"})),
        &Parameters::optimize);
+  // Stage 6: --opt-KEY for every option of the table (the preset's "optimization" keys).
+  for (const OptimizationField& f : optimization_fields()) {
+    std::string name = "--opt-" + std::string(f.key);
+    std::replace(name.begin(), name.end(), '_', '-');
+    const std::string help = std::string(f.tooltip) + " (with --optimize default)";
+    OptimizationOptions& o = given_.optimization;
+    CLI::Option* opt = f.real      ? cmd->add_option(name, o.*f.real, help)
+                       : f.integer ? cmd->add_option(name, o.*f.integer, help)
+                                   : cmd->add_option(name, o.*f.flag, help);
+    opt->group("Stage 6 (optimisation)");
+    bindings_.push_back({opt, [this, f](Parameters& p) {
+                           if (f.real) p.optimization.*f.real = given_.optimization.*f.real;
+                           if (f.integer) p.optimization.*f.integer = given_.optimization.*f.integer;
+                           if (f.flag) p.optimization.*f.flag = given_.optimization.*f.flag;
+                         }});
+  }
   bind(cmd->add_option("--seed", given_.seed, "Seed of every random choice"), &Parameters::seed);
   bind(cmd->add_option("--threads", given_.threads, "Worker threads; 0 = all cores"),
        &Parameters::threads);

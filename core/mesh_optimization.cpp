@@ -70,8 +70,8 @@ void validate(const TetMesh& mesh, const OptimizationOptions& o) {
 }  // namespace
 
 MeshOptimizer::MeshOptimizer(const TetMesh& mesh, const Volume<float>* indicator,
-                             const OptimizationOptions& options)
-    : options_(options) {
+                             const OptimizationOptions& options, bool pass_statistics)
+    : options_(options), pass_statistics_(pass_statistics) {
   const auto t0 = std::chrono::steady_clock::now();
   const double c0 = process_cpu_s();
   validate(mesh, options_);
@@ -177,7 +177,7 @@ bool MeshOptimizer::step(const Progress& progress) {
                               inserted.inserted;
   if (changes == 0 || pass >= options_.max_passes) finished_ = true;
   // Full figures after every pass, or only for the last one.
-  PassStats stats = statistics(pass, options_.pass_statistics || finished_);
+  PassStats stats = statistics(pass, pass_statistics_ || finished_);
   stats.flips_s = flips_s;
   stats.odt_s = odt_s;
   stats.smoothing_s = smoothing_s;

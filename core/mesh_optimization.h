@@ -30,6 +30,7 @@
 #include <string>
 #include <vector>
 
+#include "optimization_options.h"
 #include "progress.h"
 #include "tet_mesh.h"
 #include "volume.h"
@@ -41,42 +42,6 @@ class WorkMesh;
 class LevelSetSurface;
 }  // namespace opt
 
-struct OptimizationOptions {
-  // Tets with a dihedral angle below this or above 180° minus this are worked on (degrees).
-  double target_dihedral_deg = 20;
-  int max_passes = 10;  // a pass that changes nothing ends the optimisation early
-  bool flips = true;    // edge removal and 2-3 flips
-  // Boundary edge flips: where the boundary is convex, the diagonal of the quad of two boundary
-  // triangles is swapped (the tets between re-triangulated, or a flat tet lying on the boundary
-  // removed), and corner tets are removed, when the new triangles lie within
-  // max_face_distance_voxels (smallest voxel spacings) of the segmentation surface (0.5 level;
-  // centroids and new edge's midpoint) …
-  bool boundary_flips = true;
-  double max_face_distance_voxels = 0.5;
-  double max_boundary_shift_mm = 0;  // … without the indicator: when the boundary moves by
-                                     // at most this (mm; 0: no boundary flips)
-  bool insert_vertices = true;       // insert interior vertices where flips cannot help
-                                     // (appended after the input's vertices)
-  bool smooth_interior = true;       // move interior vertices
-  bool smooth_surface = true;        // slide boundary vertices on the level set (needs it)
-  int smoothing_iterations = 4;      // ascent steps per vertex and pass
-  // For the whole distribution, not only the bad tets (Table I's good bins): …
-  int odt_passes = 2;              // … in the first passes, ODT sweeps over the interior
-  int odt_iterations = 1;          //   vertices (this many per pass),
-  int global_flip_passes = 1;      // … and in the first passes, flips also on tets whose
-  double global_flip_below = 1.5;  //   quality (see min_quality) is below this, not only on
-                                   //   bad ones (below 1). On the liver: +2.5 % good tets in
-                                   //   each Table I measure for ~0.2 s.
-  bool odt_flips = false;          // Delaunay flips after each ODT sweep (+1.5 % good
-                                   // tets on the liver for +60 % time: off)
-  // Boundary vertices farther than this from the level set (smallest voxel spacings) are not
-  // surface samples (e.g. interior samples exposed by stage 5's peeling): they stay fixed.
-  double surface_tolerance_voxels = 0.05;
-  // Table I bins and dihedral figures after every pass, for a viewer's history (~0.1 s per
-  // pass on the liver, not counted in the timings); without, only before the first pass and
-  // after the last (the others get the counts and min_quality).
-  bool pass_statistics = false;
-};
 
 // Figures of the mesh after one pass (or before the first).
 struct PassStats {
@@ -91,7 +56,7 @@ struct PassStats {
   // a tet is bad below 1. While below 1 it never decreases from pass to pass; once above, it
   // stays above.
   double min_quality = 0;
-  // When has_statistics (every pass with pass_statistics, else the first and last):
+  // When has_statistics (every pass with pass statistics, else the first and last):
   std::size_t below_5 = 0, below_10 = 0, below_15 = 0, below_20 = 0;  // min dihedral below (°)
   std::array<std::array<double, 3>, 3> bins_percent{};  // Table I bins, kShewchukMeasures order
   bool has_statistics = false;  // the figures above and the dihedral range were computed
@@ -135,8 +100,11 @@ class MeshOptimizer {
   // `indicator` (may be null: boundary vertices then stay fixed) is the smoothed indicator
   // whose 0.5 level is the segmentation's surface; it must outlive the optimiser. Throws
   // InputError for bad options or a mesh with a missing vertex or a tet not positively oriented.
+  // With pass_statistics, Table I bins and dihedral figures after every pass, for a viewer's
+  // history (~0.1 s per pass on the liver, not counted in the timings); without, only before
+  // the first pass and after the last (the others get the counts and min_quality).
   MeshOptimizer(const TetMesh& mesh, const Volume<float>* indicator,
-                const OptimizationOptions& options = {});
+                const OptimizationOptions& options = {}, bool pass_statistics = false);
   ~MeshOptimizer();
   MeshOptimizer(const MeshOptimizer&) = delete;
   MeshOptimizer& operator=(const MeshOptimizer&) = delete;
@@ -159,6 +127,7 @@ class MeshOptimizer {
   PassStats statistics(int pass, bool full) const;
 
   OptimizationOptions options_;
+  bool pass_statistics_ = false;
   std::unique_ptr<opt::WorkMesh> work_;
   std::unique_ptr<opt::LevelSetSurface> surface_;
   OptimizationResult result_;

@@ -7,6 +7,8 @@
 #include <string>
 #include <vector>
 
+#include "optimization_options.h"
+
 namespace cvt {
 
 struct Parameters {
@@ -39,6 +41,7 @@ struct Parameters {
                                           // spacing)
   // Stage 6: optimisation.
   std::string optimize = "none";          // "none" | "default"
+  OptimizationOptions optimization;       // its options (preset: "optimization": {...})
   // Everywhere.
   std::uint64_t seed = 1;                 // every random choice is seeded from this
   int threads = 0;                        // worker threads; 0 = all cores

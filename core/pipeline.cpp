@@ -103,8 +103,10 @@ void Pipeline::set_image(std::shared_ptr<const Image> image) {
 void Pipeline::set_parameters(const Parameters& parameters) {
   validate(parameters);
   const Stage changed = first_changed_stage(parameters_, parameters);
+  const bool restart = parameters.optimization != parameters_.optimization;
   parameters_ = parameters;
   if (changed != Stage::count) invalidate_from(changed);
+  if (restart && changed > Stage::mesh) restart_optimization();
 }
 
 void Pipeline::invalidate_from(Stage s) {
@@ -218,7 +220,7 @@ void Pipeline::start_optimization() {
   unoptimized_ = std::move(mesh_);
   mesh_ = std::make_unique<MeshGenerationResult>(*unoptimized_);
   optimizer_ = std::make_unique<MeshOptimizer>(unoptimized_->mesh, &preprocess_->indicator,
-                                               optimization_options_);
+                                               parameters_.optimization, pass_statistics_);
 }
 
 int Pipeline::optimize_passes(int k, const Progress& progress) {
@@ -246,8 +248,7 @@ int Pipeline::optimize_passes(int k, const Progress& progress) {
   return done;
 }
 
-void Pipeline::set_optimization_options(const OptimizationOptions& options) {
-  optimization_options_ = options;
+void Pipeline::restart_optimization() {
   if (!unoptimized_) return;  // stage 6 has not started
   optimizer_.reset();
   optimization_.reset();

@@ -68,10 +68,9 @@ class Pipeline {
   // then k passes (to the end with k < 0); mesh() follows after every call, evaluation becomes
   // stale, and the mesh stage is done once the optimiser has finished. Returns passes run.
   int step_optimization(int k, const Progress& progress = {});
-  // Stage 6 options (the CLI keeps the defaults). Setting them restarts stage 6 from the
-  // stage-5 mesh (the caller sets them only when they changed).
-  void set_optimization_options(const OptimizationOptions& options);
-  const OptimizationOptions& optimization_options() const { return optimization_options_; }
+  // Stage 6's options are parameters.optimization: changing only them restarts stage 6 from
+  // the kept stage-5 mesh. Per-pass statistics (the viewer's history) are not a parameter.
+  void set_pass_statistics(bool on) { pass_statistics_ = on; }
 
   // Results (null / empty until the stage has run).
   const PreprocessResult* preprocess() const { return preprocess_.get(); }
@@ -94,6 +93,7 @@ class Pipeline {
   void invalidate_from(Stage s);
   void start_lloyd();
   void start_optimization();                           // mesh_ becomes the kept stage-5 mesh's copy
+  void restart_optimization();                         // from the kept stage-5 mesh, no pass yet
   int optimize_passes(int k, const Progress& progress);  // k < 0: to the end
 
   std::shared_ptr<const Image> image_;
@@ -107,7 +107,7 @@ class Pipeline {
   std::unique_ptr<OptimizationResult> optimization_;
   std::unique_ptr<MeshGenerationResult> unoptimized_;  // stage 5's mesh, once stage 6 started
   std::unique_ptr<MeshOptimizer> optimizer_;           // while stage 6 is part way
-  OptimizationOptions optimization_options_;
+  bool pass_statistics_ = false;
   int first_passes_ = -1;  // passes the mesh stage runs of stage 6 (step_optimization: 0)
   std::unique_ptr<QualityReport> quality_;
   std::unique_ptr<FidelityReport> fidelity_;

@@ -1,5 +1,6 @@
 #include "preset.h"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -44,6 +45,7 @@ void for_each_field(Parameters& p, F&& f) {
   f("fidelity_rounds", p.fidelity_rounds);
   f("fidelity_tolerance_mm", p.fidelity_tolerance_mm);
   f("optimize", p.optimize);
+  f("optimization", p.optimization);
   f("seed", p.seed);
   f("threads", p.threads);
   f("max_points", p.max_points);
@@ -81,6 +83,18 @@ void read_value(const json& j, const std::string& key, T& out) {
       double v;
       read_value(j, key, v);
       out = v;
+    }
+  } else if constexpr (std::is_same_v<T, OptimizationOptions>) {
+    if (!j.is_object()) throw InputError(key + ": expected an object of stage-6 options");
+    for (auto it = j.begin(); it != j.end(); ++it) {
+      const auto& fields = optimization_fields();
+      const auto f = std::find_if(fields.begin(), fields.end(),
+                                  [&](const OptimizationField& f) { return f.key == it.key(); });
+      const std::string name = key + "." + it.key();
+      if (f == fields.end()) throw InputError("unknown parameter '" + name + "'");
+      if (f->real) read_value(*it, name, out.*f->real);
+      if (f->integer) read_value(*it, name, out.*f->integer);
+      if (f->flag) read_value(*it, name, out.*f->flag);
     }
   } else {  // label list: "all" or an array of integers
     if (j.is_string() && j.get<std::string>() == "all") {
@@ -136,6 +150,7 @@ void validate(const Parameters& p) {
           "must be >= 0 (0 = auto)");
   require(p.optimize == "none" || p.optimize == "default", "optimize",
           "must be \"none\" or \"default\"");
+  validate(p.optimization);
   require(p.threads >= 0 && p.threads <= 1024, "threads", "must be in 0..1024 (0 = all cores)");
   require(p.max_points > 0, "max_points", "must be > 0");
   require(finite(p.max_memory_mb) && p.max_memory_mb >= 0, "max_memory_mb",
@@ -151,6 +166,11 @@ json to_json(const Parameters& parameters) {
       j[key] = value ? json(*value) : json(nullptr);
     else if constexpr (std::is_same_v<T, std::vector<std::int64_t>>)
       j[key] = value.empty() ? json("all") : json(value);
+    else if constexpr (std::is_same_v<T, OptimizationOptions>)
+      for (const OptimizationField& f : optimization_fields()) {
+        json& v = j[key][std::string(f.key)];
+        v = f.real ? json(value.*f.real) : f.integer ? json(value.*f.integer) : json(value.*f.flag);
+      }
     else
       j[key] = value;
   });

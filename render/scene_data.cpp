@@ -155,7 +155,6 @@ std::shared_ptr<const SceneData> SceneDataBuilder::update(const Pipeline& pipeli
   const MeshGenerationResult* mesh = pipeline.mesh();
   s->mesh = pick(prev ? prev->mesh : nullptr, mesh != nullptr, ran[int(Stage::mesh)],
                  [&] { return make_mesh_layers(*mesh); });
-  s->optimization_options = pipeline.optimization_options();
   s->optimization =
       pick(prev ? prev->optimization : nullptr, optimization != nullptr, ran[int(Stage::mesh)],
            [&] { return std::make_shared<const OptimizationResult>(*optimization); });

@@ -70,7 +70,6 @@ struct SceneData {
   std::shared_ptr<const MeshLayers> mesh;  // the optimised mesh once stage 6 ran
   // Stage 6: its options as applied, its result so far (per-pass history), and the stage-5
   // mesh's measures (null until stage 6 started), for before/after figures.
-  OptimizationOptions optimization_options;
   std::shared_ptr<const OptimizationResult> optimization;
   std::shared_ptr<const MeshMeasures> unoptimized;
   std::shared_ptr<const QualityReport> quality;

@@ -132,6 +132,33 @@ class Optimize(unittest.TestCase):
             self.assertEqual(q["validity"]["euler_characteristic"], 0)  # still a torus
             self.assertGreaterEqual(q["dihedral_deg"]["min"], 10.0)
 
+    def test_stage6_options_from_the_command_line_and_a_preset(self):
+        # --opt-KEY overrides the preset's "optimization" object, which overrides the defaults;
+        # the report records what ran.
+        torus = os.path.join(SOURCE, "assets", "phantom_torus.nii.gz")
+        with tempfile.TemporaryDirectory() as tmp:
+            preset, report = os.path.join(tmp, "p.json"), os.path.join(tmp, "r.json")
+            with open(preset, "w") as f:
+                json.dump({"optimize": "default",
+                           "optimization": {"max_passes": 1, "target_dihedral_deg": 12}}, f)
+            out = os.path.join(tmp, "t.vtu")
+            r = run("mesh", torus, "-q", "--preset", preset, "--opt-target-dihedral-deg", "25",
+                    "-o", out, "--report", report)
+            self.assertEqual(r.returncode, 0, r.stderr)
+            with open(report) as f:
+                rep = json.load(f)
+            self.assertEqual(rep["parameters"]["optimization"]["max_passes"], 1)
+            self.assertEqual(rep["parameters"]["optimization"]["target_dihedral_deg"], 25)
+            self.assertEqual(len(rep["optimization"]["passes"]), 2)  # before + one pass
+            # Out of range: one line naming the key, no output.
+            os.remove(out)
+            r = run("mesh", torus, "-q", "--optimize", "default", "--opt-max-passes", "-1",
+                    "-o", out)
+            self.assertNotEqual(r.returncode, 0)
+            self.assertIn("optimization.max_passes", r.stderr)
+            self.assertEqual(len(r.stderr.strip().splitlines()), 1, r.stderr)
+            self.assertFalse(os.path.exists(out))
+
 
 class QualityFidelity(unittest.TestCase):
     def test_quality_image_agrees_with_the_run_report(self):

@@ -476,7 +476,7 @@ TEST(Session, StepsStageSixPassByPassWithBeforeAndAfter) {
 
   // An edited stage 6 option marks the mesh stage pending; re-running starts stage 6 again
   // from the kept stage-5 mesh (the same before figures) and runs it to the end.
-  s.edited_optimization.max_passes = 1;
+  s.edited.optimization.max_passes = 1;
   EXPECT_EQ(s.stage_states()[int(Stage::shallow)], StageState::done);
   EXPECT_EQ(s.stage_states()[int(Stage::mesh)], StageState::pending);
   s.rerun_stale();
@@ -490,7 +490,7 @@ TEST(Session, StepsStageSixPassByPassWithBeforeAndAfter) {
   EXPECT_GE(passes, 1);
 
   // Cancel while passes are queued: the rest are dropped, the mesh drawn is a valid state.
-  s.edited_optimization.max_passes = 10;
+  s.edited.optimization.max_passes = 10;
   s.step_optimization(-1);
   s.cancel();
   settle(s);
@@ -500,8 +500,7 @@ TEST(Session, StepsStageSixPassByPassWithBeforeAndAfter) {
 }
 
 TEST(OptimizationSettings, EveryFieldHasATooltipAndCounts) {
-  const OptimizationOptions defaults = viewer_optimization_options();
-  EXPECT_TRUE(defaults.pass_statistics);
+  const OptimizationOptions defaults;
   for (const OptimizationField& f : optimization_fields()) {
     EXPECT_FALSE(f.tooltip.empty()) << f.key;
     EXPECT_EQ((f.real != nullptr) + (f.integer != nullptr) + (f.flag != nullptr), 1) << f.key;
@@ -510,7 +509,7 @@ TEST(OptimizationSettings, EveryFieldHasATooltipAndCounts) {
     if (f.real) o.*f.real += 0.5;
     if (f.integer) o.*f.integer += 1;
     if (f.flag) o.*f.flag = !(o.*f.flag);
-    EXPECT_FALSE(same_optimization_options(o, defaults)) << f.key;
+    EXPECT_NE(o, defaults) << f.key;
     // Units: angles in degrees, lengths in mm or voxels, counts.
     if (f.key.find("_deg") != std::string_view::npos)
       EXPECT_NE(f.tooltip.find("degrees"), std::string_view::npos) << f.key;
@@ -523,7 +522,7 @@ TEST(OptimizationSettings, EveryFieldHasATooltipAndCounts) {
   OptimizationOptions wild = defaults;
   wild.max_passes = -4;
   wild.target_dihedral_deg = 400;
-  clamp_optimization_options(wild);
+  clamp(wild);
   EXPECT_EQ(wild.max_passes, 0);
   EXPECT_LE(wild.target_dihedral_deg, 35);
 }

@@ -40,6 +40,9 @@ TEST(Preset, RoundTripThroughAFile) {
   p.max_iterations = 17;
   p.seed = 123456789012345ULL;
   p.optimize = "default";
+  p.optimization.target_dihedral_deg = 17.5;
+  p.optimization.odt_passes = 1;
+  p.optimization.boundary_flips = false;
   const fs::path file = temp_dir() / "preset.json";
   save_preset(p, file.string());
   EXPECT_EQ(load_preset(file.string()), p);
@@ -48,6 +51,11 @@ TEST(Preset, RoundTripThroughAFile) {
   base.r = 0.4;
   EXPECT_EQ(parameters_from_json(nlohmann::json{{"seed", 7}}, base).r, 0.4);
   EXPECT_EQ(parameters_from_json(nlohmann::json{{"labels", "all"}}).labels.size(), 0u);
+  // Stage 6's options: a partial object changes only what it names.
+  const Parameters o =
+      parameters_from_json(nlohmann::json::parse(R"({"optimization": {"max_passes": 3}})"));
+  EXPECT_EQ(o.optimization.max_passes, 3);
+  EXPECT_EQ(o.optimization.target_dihedral_deg, OptimizationOptions{}.target_dihedral_deg);
   fs::remove_all(file.parent_path());
 }
 
@@ -68,6 +76,21 @@ TEST(Preset, BadKeysTypesAndValuesNameTheKey) {
             std::string::npos);
   EXPECT_NE(error_of({{"labels", {1, "x"}}}).find("labels"), std::string::npos);
   EXPECT_NE(error_of({{"optimize", "fast"}}).find("optimize"), std::string::npos);
+  using nlohmann::json;
+  EXPECT_NE(error_of(json::parse(R"({"optimization": {"passes": 3}})"))
+                .find("unknown parameter 'optimization.passes'"),
+            std::string::npos);
+  EXPECT_NE(error_of(json::parse(R"({"optimization": {"max_passes": 2.5}})"))
+                .find("optimization.max_passes: expected an integer"),
+            std::string::npos);
+  EXPECT_NE(error_of(json::parse(R"({"optimization": {"target_dihedral_deg": -5}})"))
+                .find("optimization.target_dihedral_deg: must be in [1, 35]"),
+            std::string::npos);
+  EXPECT_NE(error_of(json::parse(R"({"optimization": {"flips": 1}})"))
+                .find("optimization.flips: expected true or false"),
+            std::string::npos);
+  EXPECT_NE(error_of(json::parse(R"({"optimization": 3})")).find("optimization: expected an object"),
+            std::string::npos);
   EXPECT_NE(error_of({{"lfs_min_mm", 3}, {"lfs_max_mm", 2}}).find("lfs_max_mm"), std::string::npos);
   EXPECT_NE(error_of(nlohmann::json::array()).find("expected a JSON object"), std::string::npos);
 }

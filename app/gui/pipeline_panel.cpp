@@ -1,5 +1,5 @@
 // The pipeline panel: job progress and controls, the stages with their state, every parameter
-// (tooltips from parameter_info and optimization_settings), the Lloyd stepping controls with
+// (tooltips from parameter_info and the stage-6 option table), the Lloyd stepping controls with
 // the energy and displacement plots, and stage 6's pass-by-pass controls with its history.
 #include <imgui.h>
 
@@ -158,7 +158,7 @@ bool optimization_section(UiContext& ctx) {
   if (ImGui::Checkbox(label_of("optimize").c_str(), &optimize))
     p.optimize = optimize ? "default" : "none", changed = true;
   tooltip("optimize");
-  OptimizationOptions& o = s.edited_optimization;
+  OptimizationOptions& o = p.optimization;
   for (const OptimizationField& f : optimization_fields()) {
     const std::string label = std::string(f.label) + "##opt_" + std::string(f.key);
     if (f.real) {
@@ -172,7 +172,7 @@ bool optimization_section(UiContext& ctx) {
       ImGui::SetTooltip("%.*s\n(stage 6, part of mesh generation)", int(f.tooltip.size()),
                         f.tooltip.data());
   }
-  if (changed) clamp_optimization_options(o);
+  if (changed) clamp(o);
   const bool busy = s.busy();
   const render::SceneData* scene = s.scene();
   ImGui::BeginDisabled(busy || !scene || !scene->image);
@@ -196,7 +196,7 @@ bool optimization_section(UiContext& ctx) {
   const int passes = int(r->history.size()) - 1;
   const bool finished = scene->parameters.optimize == "default" && !scene->stale[int(Stage::mesh)];
   ImGui::Text("pass %d of at most %d%s, %.2f s; %zu inserted, %zu corners removed", passes,
-              scene->optimization_options.max_passes, finished ? ", finished" : "", r->wall_s,
+              scene->parameters.optimization.max_passes, finished ? ", finished" : "", r->wall_s,
               r->inserted_vertices, r->corner_removals);
   ImGui::Text("boundary: within %.3g mm of the surface (before %.3g mm)",
               r->surface_distance_after_mm, r->surface_distance_before_mm);

@@ -40,12 +40,9 @@ Parameters with_default_iso(Parameters p, const Image* image) {
 }  // namespace
 
 std::function<void(JobContext&)> Session::applying(std::function<void(JobContext&)> then) const {
-  return [parameters = edited, optimization = edited_optimization,
-          then = std::move(then)](JobContext& ctx) {
+  return [parameters = edited, then = std::move(then)](JobContext& ctx) {
+    ctx.pipeline.set_pass_statistics(true);  // the panel plots every pass (~0.1 s a pass, liver)
     ctx.pipeline.set_parameters(with_default_iso(parameters, ctx.image.get()));
-    // Setting stage 6's options restarts it: only when they changed.
-    if (!same_optimization_options(ctx.pipeline.optimization_options(), optimization))
-      ctx.pipeline.set_optimization_options(optimization);
     then(ctx);
   };
 }
@@ -101,7 +98,7 @@ void Session::step_optimization(int passes) {
     edited.optimize = "default";
     message(false, "optimisation turned on (optimize = default)");
   }
-  const int jobs = passes < 0 ? std::max(edited_optimization.max_passes, 1) : passes;
+  const int jobs = passes < 0 ? std::max(edited.optimization.max_passes, 1) : passes;
   for (int i = 0; i < jobs; ++i)
     worker_.submit("optimisation pass", applying([](JobContext& ctx) {
                      ctx.pipeline.step_optimization(1, ctx.progress);
@@ -158,7 +155,7 @@ std::shared_ptr<const render::LloydState> Session::lloyd() const {
 }
 
 std::array<StageState, kStageCount> Session::stage_states() const {
-  return cvt::gui::stage_states(scene_.get(), edited, &edited_optimization);
+  return cvt::gui::stage_states(scene_.get(), edited);
 }
 
 bool Session::poll(double now_s) {

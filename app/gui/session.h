@@ -9,7 +9,6 @@
 #include <string>
 #include <vector>
 
-#include "optimization_settings.h"
 #include "pipeline_worker.h"
 #include "recent_files.h"
 #include "view_settings.h"
@@ -39,7 +38,7 @@ class Session {
   void run_next_stage();            // the first non-done stage
   void step_lloyd(int iterations);  // < 0: to convergence
   // Stage 6 pass by pass, one job per pass so the views follow each one: `passes` jobs (< 0:
-  // as many as edited_optimization.max_passes; those after the last useful pass do nothing).
+  // as many as edited.optimization.max_passes; those after the last useful pass do nothing).
   // Turns optimisation on (edited.optimize = "default"): stepping it means using it.
   void step_optimization(int passes);
   void cancel();
@@ -60,14 +59,13 @@ class Session {
   std::shared_ptr<const render::LloydState> lloyd() const;
   std::array<StageState, kStageCount> stage_states() const;
   bool edits_pending() const {
-    return first_edited_stage(scene_.get(), edited, &edited_optimization) != Stage::count;
+    return first_edited_stage(scene_.get(), edited) != Stage::count;
   }
   WorkerStatus worker_status() const { return worker_.status(); }
   bool busy() const { return worker_.busy(); }
   void wait_idle() { worker_.wait_idle(); }
 
-  Parameters edited;  // what the pipeline panel shows and edits
-  OptimizationOptions edited_optimization = viewer_optimization_options();  // stage 6's
+  Parameters edited;  // what the pipeline panel shows and edits (stage 6's options too)
   bool auto_rerun = false;
   std::vector<Message> messages;  // newest last
   std::size_t failed_jobs = 0;

@@ -41,23 +41,21 @@ int effective_slice_index(const ViewSettings& view, const render::SceneData& sce
   return n / 2;
 }
 
-Stage first_edited_stage(const render::SceneData* scene, const Parameters& edited,
-                         const OptimizationOptions* edited_optimization) {
+Stage first_edited_stage(const render::SceneData* scene, const Parameters& edited) {
   if (!scene) return Stage::count;
   const Stage changed = first_changed_stage(scene->parameters, edited);
-  if (changed == Stage::count && edited_optimization && edited.optimize == "default" &&
-      !same_optimization_options(scene->optimization_options, *edited_optimization))
+  if (changed == Stage::count && edited.optimize == "default" &&
+      scene->parameters.optimization != edited.optimization)
     return Stage::mesh;
   return changed;
 }
 
 std::array<StageState, kStageCount> stage_states(const render::SceneData* scene,
-                                                 const Parameters& edited,
-                                                 const OptimizationOptions* edited_optimization) {
+                                                 const Parameters& edited) {
   std::array<StageState, kStageCount> states;
   states.fill(StageState::stale);
   if (!scene) return states;
-  const int edited_from = int(first_edited_stage(scene, edited, edited_optimization));
+  const int edited_from = int(first_edited_stage(scene, edited));
   for (int s = 0; s < kStageCount; ++s) {
     if (scene->stale[s]) continue;
     states[s] = s >= edited_from ? StageState::pending : StageState::done;

@@ -8,7 +8,6 @@
 #include <string>
 #include <vector>
 
-#include "optimization_settings.h"
 #include "quality.h"
 #include "quality_selection.h"
 #include "scene_data.h"
@@ -59,13 +58,11 @@ enum class StageState {
   pending,  // done, but an edited (not yet applied) parameter changes it
   stale,    // not run with the current parameters (or never)
 };
-// First stage the edited parameters (and stage 6 options, if given: they change the mesh
-// stage when optimisation is on) change relative to the applied ones (count if none).
-Stage first_edited_stage(const render::SceneData* scene, const Parameters& edited,
-                         const OptimizationOptions* edited_optimization = nullptr);
-std::array<StageState, kStageCount> stage_states(
-    const render::SceneData* scene, const Parameters& edited,
-    const OptimizationOptions* edited_optimization = nullptr);
+// First stage the edited parameters change relative to the applied ones (count if none);
+// stage 6's options change the mesh stage when optimisation is on.
+Stage first_edited_stage(const render::SceneData* scene, const Parameters& edited);
+std::array<StageState, kStageCount> stage_states(const render::SceneData* scene,
+                                                 const Parameters& edited);
 
 // The stages "re-run stale" runs: every non-done stage up to `target` (the furthest stage the
 // user has asked for), in order.

@@ -1,8 +1,13 @@
-#include "optimization_settings.h"
+#include "optimization_options.h"
 
 #include <algorithm>
+#include <cmath>
+#include <sstream>
+#include <string>
 
-namespace cvt::gui {
+#include "errors.h"
+
+namespace cvt {
 
 const std::vector<OptimizationField>& optimization_fields() {
   using O = OptimizationOptions;
@@ -81,27 +86,21 @@ const std::vector<OptimizationField>& optimization_fields() {
   return fields;
 }
 
-OptimizationOptions viewer_optimization_options() {
-  OptimizationOptions o;
-  o.pass_statistics = true;  // the panel plots every pass (~0.1 s a pass on the liver)
-  return o;
-}
-
-bool same_optimization_options(const OptimizationOptions& a, const OptimizationOptions& b) {
-  if (a.pass_statistics != b.pass_statistics) return false;
+void validate(const OptimizationOptions& o) {
   for (const OptimizationField& f : optimization_fields()) {
-    if (f.real && a.*f.real != b.*f.real) return false;
-    if (f.integer && a.*f.integer != b.*f.integer) return false;
-    if (f.flag && a.*f.flag != b.*f.flag) return false;
+    const double v = f.real ? o.*f.real : f.integer ? double(o.*f.integer) : 0.0;
+    if (f.flag || (std::isfinite(v) && v >= f.lo && v <= f.hi)) continue;
+    std::ostringstream s;
+    s << "optimization." << f.key << ": must be in [" << f.lo << ", " << f.hi << "]";
+    throw InputError(s.str());
   }
-  return true;
 }
 
-void clamp_optimization_options(OptimizationOptions& o) {
+void clamp(OptimizationOptions& o) {
   for (const OptimizationField& f : optimization_fields()) {
-    if (f.real) o.*f.real = std::clamp(o.*f.real, f.lo, f.hi);
+    if (f.real) o.*f.real = std::clamp(std::isfinite(o.*f.real) ? o.*f.real : f.lo, f.lo, f.hi);
     if (f.integer) o.*f.integer = std::clamp(o.*f.integer, int(f.lo), int(f.hi));
   }
 }
 
-}  // namespace cvt::gui
+}  // namespace cvt
