@@ -76,16 +76,18 @@ std::vector<std::vector<std::int32_t>> colour_classes(const WorkMesh& m,
   std::vector<std::vector<std::int32_t>> classes;
   std::vector<char> used;
   std::vector<std::int32_t> ring;
+  std::vector<std::int32_t> in_ring(two_rings ? nv : 0, -1);  // v whose ring holds w
   for (std::size_t v = 0; v < nv; ++v) {
     if (!selected[v]) continue;
     used.assign(classes.size() + 1, 0);
+    // Repeated neighbours only mark a colour twice; the ring itself (deduplicated with a
+    // marker, not a sort: this loop is serial) is needed only for the second ring.
     ring.clear();
     for (std::int32_t t : m.vertex_tets[v])
-      for (std::int32_t w : m.tets[t]) ring.push_back(w);
-    std::sort(ring.begin(), ring.end());
-    ring.erase(std::unique(ring.begin(), ring.end()), ring.end());
-    for (std::int32_t w : ring)
-      if (colour[w] >= 0) used[colour[w]] = 1;
+      for (std::int32_t w : m.tets[t]) {
+        if (colour[w] >= 0) used[colour[w]] = 1;
+        if (two_rings && in_ring[w] != std::int32_t(v)) in_ring[w] = std::int32_t(v), ring.push_back(w);
+      }
     if (two_rings) {
       const bool boundary = m.on_boundary[v] != 0;
       for (std::int32_t w : ring) {

@@ -10,7 +10,7 @@ namespace cvt {
 
 struct OptimizationOptions {
   // Tets with a dihedral angle below this or above 180° minus this are worked on (degrees).
-  double target_dihedral_deg = 20;
+  double target_dihedral_deg = 15;
   int max_passes = 10;  // a pass that changes nothing ends the optimisation early
   bool flips = true;    // edge removal and 2-3 flips
   // Boundary edge flips: where the boundary is convex, the diagonal of the quad of two boundary
