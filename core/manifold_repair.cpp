@@ -112,7 +112,12 @@ std::vector<std::int32_t> pinched_boundary_vertices(std::size_t vertex_count,
   TetMesh view;
   view.vertices.resize(vertex_count);
   view.tets = tets;
-  const auto link = boundary_links(boundary_triangles(view), vertex_count);
+  return pinched_vertices(vertex_count, boundary_triangles(view));
+}
+
+std::vector<std::int32_t> pinched_vertices(std::size_t vertex_count,
+                                           const std::vector<Triangle>& boundary) {
+  const auto link = boundary_links(boundary, vertex_count);
   std::vector<std::int32_t> pinched;
   for (std::size_t v = 0; v < vertex_count; ++v)
     if (!link[v].empty() && !link_is_one_cycle(link[v])) pinched.push_back(std::int32_t(v));

@@ -25,6 +25,9 @@ struct ManifoldRepairReport {
 // the ends of non-manifold edges and the points where two sheets of the boundary touch.
 std::vector<std::int32_t> pinched_boundary_vertices(std::size_t vertex_count,
                                                     const std::vector<Tet>& tets);
+// The same from the boundary triangles themselves (in any order and orientation).
+std::vector<std::int32_t> pinched_vertices(std::size_t vertex_count,
+                                           const std::vector<Triangle>& boundary);
 
 // tets index `points`; removed tets are appended to `removed` (as corner positions) when given.
 ManifoldRepairReport repair_boundary_manifold(const std::vector<Vec3>& points,

@@ -17,9 +17,16 @@ namespace {
 
 using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
 using VertexBase = CGAL::Triangulation_vertex_base_with_info_3<int, Kernel>;
-// Cells carry their fate under rules 1–2 (CellFate); the Delaunay base has circumcenter().
+// Cells carry their fate under rules 1–2 (CellFate), and what rules 1 and 2 alone make of
+// them, which depends only on the cell's corners: a cell that survives a pinched sample's
+// removal keeps it, so only new cells are tested again. The Delaunay base has circumcenter().
+enum class CellTest : signed char { untested, inside, pole, outside };
+struct CellInfo {
+  int fate = 0;  // a CellFate, negated while restore_enclosed marks cells
+  CellTest test = CellTest::untested;
+};
 using CellBase = CGAL::Triangulation_cell_base_with_info_3<
-    int, Kernel, CGAL::Delaunay_triangulation_cell_base_3<Kernel>>;
+    CellInfo, Kernel, CGAL::Delaunay_triangulation_cell_base_3<Kernel>>;
 using DataStructure = CGAL::Triangulation_data_structure_3<VertexBase, CellBase>;
 using Delaunay = CGAL::Delaunay_triangulation_3<Kernel, DataStructure>;
 using Point = Kernel::Point_3;
@@ -95,8 +102,8 @@ void restore_enclosed(const Delaunay& dt, const std::vector<Delaunay::Cell_handl
   for (Delaunay::Cell_handle c : outside)
     for (int k = 0; k < 4; ++k) {
       const Delaunay::Cell_handle n = c->neighbor(k);
-      if (dt.is_infinite(n) || n->info() == pole_cell) {
-        c->info() = -outside_cell;  // reached: marked by the sign until the end
+      if (dt.is_infinite(n) || n->info().fate == pole_cell) {
+        c->info().fate = -outside_cell;  // reached: marked by the sign until the end
         reached.push_back(c);
         break;
       }
@@ -104,12 +111,28 @@ void restore_enclosed(const Delaunay& dt, const std::vector<Delaunay::Cell_handl
   for (std::size_t q = 0; q < reached.size(); ++q)
     for (int k = 0; k < 4; ++k) {
       const Delaunay::Cell_handle n = reached[q]->neighbor(k);
-      if (!dt.is_infinite(n) && n->info() == outside_cell) {
-        n->info() = -outside_cell;
+      if (!dt.is_infinite(n) && n->info().fate == outside_cell) {
+        n->info().fate = -outside_cell;
         reached.push_back(n);
       }
     }
-  for (Delaunay::Cell_handle c : outside) c->info() = c->info() == -outside_cell ? outside_cell : kept_cell;
+  for (Delaunay::Cell_handle c : outside)
+    c->info().fate = c->info().fate == -outside_cell ? outside_cell : kept_cell;
+}
+
+// Faces between kept cells and the rest (removed cells or the hull), as sample indices.
+std::vector<Triangle> kept_boundary(const Delaunay& dt) {
+  std::vector<Triangle> faces;
+  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
+    if (c->info().fate != kept_cell) continue;
+    for (int k = 0; k < 4; ++k) {
+      const Delaunay::Cell_handle n = c->neighbor(k);
+      if (!dt.is_infinite(n) && n->info().fate == kept_cell) continue;
+      faces.push_back({c->vertex((k + 1) & 3)->info(), c->vertex((k + 2) & 3)->info(),
+                       c->vertex((k + 3) & 3)->info()});
+    }
+  }
+  return faces;
 }
 
 }  // namespace
@@ -219,62 +242,68 @@ MeshGenerationResult build_delaunay_mesh(const std::vector<Vec3>& surface,
 
   // Rules 1 and 2 select the tets; where the result pinches (the boundary is not a disc around
   // a sample), that sample is deleted from the triangulation and the selection redone.
-  std::vector<Tet> kept;  // indices into B ∪ I
   for (int pass = 0;; ++pass) {
     progress(pass == 0 ? "pole removal" : "pinch removal", 0.7);
-    kept.clear();
-    out.removed_outside.clear();
-    out.delaunay_tets = out.removed_by_poles = out.removed_by_centroid = 0;
+    out.delaunay_tets = out.removed_by_poles = 0;
     std::vector<Delaunay::Cell_handle> outside;
     for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
       ++out.delaunay_tets;
-      c->info() = kept_cell;
-      for (int k = 0; k < 4; ++k)
-        if (c->vertex(k)->info() < 0) c->info() = pole_cell;
-      if (c->info() == pole_cell) {
-        ++out.removed_by_poles;
-        continue;
+      CellInfo& info = c->info();
+      if (info.test == CellTest::untested) {
+        info.test = CellTest::inside;
+        for (int k = 0; k < 4; ++k)
+          if (c->vertex(k)->info() < 0) info.test = CellTest::pole;
+        if (info.test == CellTest::inside && options.remove_outside_tets &&
+            centroid_outside(c, occupancy, options))
+          info.test = CellTest::outside;
       }
-      if (options.remove_outside_tets && centroid_outside(c, occupancy, options)) {
-        c->info() = outside_cell;
-        outside.push_back(c);
-      }
+      info.fate = info.test == CellTest::pole      ? pole_cell
+                  : info.test == CellTest::outside ? outside_cell
+                                                   : kept_cell;
+      if (info.fate == pole_cell) ++out.removed_by_poles;
+      if (info.fate == outside_cell) outside.push_back(c);
     }
     if (options.remove_outside_tets)
       for (const Vec3& p : options.outside_points) {
         const Delaunay::Cell_handle c = dt.locate(to_point(p));
-        if (dt.is_infinite(c) || c->info() != kept_cell) continue;
-        c->info() = outside_cell;
+        if (dt.is_infinite(c) || c->info().fate != kept_cell) continue;
+        c->info().fate = outside_cell;
         outside.push_back(c);
       }
     restore_enclosed(dt, outside);
-    for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
-      if (c->info() == pole_cell) continue;
-      std::array<Vec3, 4> corners;
-      Tet t;
-      for (int k = 0; k < 4; ++k) {
-        t[k] = c->vertex(k)->info();
-        corners[k] = to_vec(c->vertex(k)->point());
-      }
-      if (c->info() == outside_cell) {
-        ++out.removed_by_centroid;
-        out.removed_outside.push_back(corners);
-      } else {
-        kept.push_back(t);
-      }
-    }
-    // CGAL's vertex removal orders its work by handle address, which varies from run to run;
-    // a canonical order keeps the pinch and repair steps (order-dependent) deterministic.
-    for (Tet& t : kept) t = canonical(t);
-    std::sort(kept.begin(), kept.end());
     if (!options.repair_manifold || pass >= options.max_pinch_passes) break;
-    const std::vector<std::int32_t> pinched = pinched_boundary_vertices(std::size_t(nb + ni), kept);
+    // The boundary straight from the cells' adjacency (no tet list to sort each pass); the
+    // pinched samples come out in index order, so their removal order is deterministic.
+    const std::vector<std::int32_t> pinched =
+        pinched_vertices(std::size_t(nb + ni), kept_boundary(dt));
     if (pinched.empty()) break;
     for (std::int32_t v : pinched) {
       dt.remove(handle[v]);
       out.pinched_samples.push_back(v < nb ? surface[v] : nudged[v - nb]);
     }
   }
+  std::vector<Tet> kept;  // indices into B ∪ I
+  out.removed_outside.clear();
+  out.removed_by_centroid = 0;
+  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
+    if (c->info().fate == pole_cell) continue;
+    std::array<Vec3, 4> corners;
+    Tet t;
+    for (int k = 0; k < 4; ++k) {
+      t[k] = c->vertex(k)->info();
+      corners[k] = to_vec(c->vertex(k)->point());
+    }
+    if (c->info().fate == outside_cell) {
+      ++out.removed_by_centroid;
+      out.removed_outside.push_back(corners);
+    } else {
+      kept.push_back(t);
+    }
+  }
+  // CGAL's vertex removal orders its work by handle address, which varies from run to run;
+  // a canonical order keeps the repair step (order-dependent) deterministic.
+  for (Tet& t : kept) t = canonical(t);
+  std::sort(kept.begin(), kept.end());
 
   progress("manifold repair", 0.9);
   std::vector<Vec3> points(surface);
