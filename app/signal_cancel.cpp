@@ -6,13 +6,19 @@
 #include <chrono>
 #include <csignal>
 #include <cstdio>
+#include <cstdlib>
 #include <mutex>
 #include <thread>
 
 namespace cvt::cli {
 namespace {
 
-constexpr auto kGrace = std::chrono::milliseconds(250);
+// The watchdog's grace: 250 ms, or CVTMESH_CANCEL_GRACE_MS (tests make it long, to time the
+// stages' own checks).
+std::chrono::milliseconds grace() {
+  const char* ms = std::getenv("CVTMESH_CANCEL_GRACE_MS");
+  return std::chrono::milliseconds(ms && *ms ? std::atol(ms) : 250);
+}
 constexpr char kMessage[] = "cvtmesh: cancelled; nothing was written\n";
 
 std::atomic<bool> interrupted{false};
@@ -35,7 +41,7 @@ void watchdog() {
   char byte;
   while (::read(wake_pipe[0], &byte, 1) < 0 && errno == EINTR) {
   }
-  std::this_thread::sleep_for(kGrace);
+  std::this_thread::sleep_for(grace());
   for (;;) {
     {
       std::lock_guard lock(state_mutex);

@@ -1,10 +1,9 @@
 // Ctrl-C (SIGINT) and SIGTERM cancel the running stage instead of killing the process, so no
-// temp file is left behind and the exit is clean. Stages check the flag between steps; some
-// steps (a CGAL triangulation, the fidelity sampling, an optimisation pass) run for seconds
-// without a check, so a watchdog ends the process itself (exit 130, one line) when the run
-// has not stopped a quarter of a second after the signal (exiting a big process takes some
-// too). Nothing is on disk before the outputs are written, and the watchdog waits while they
-// are (WritingOutputs).
+// temp file is left behind and the exit is clean. Stages check the flag often enough to stop
+// within a second (tests/test_cancel.py); as a safety net, a watchdog ends the process itself
+// (exit 130, one line) when the run has not stopped a quarter of a second after the signal
+// (CVTMESH_CANCEL_GRACE_MS=N makes it N ms; the test makes it long). Nothing is on disk before
+// the outputs are written, and the watchdog waits while they are (WritingOutputs).
 #pragma once
 
 #include <atomic>

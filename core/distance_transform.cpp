@@ -289,7 +289,7 @@ CVT_ENVELOPE_CLONES void envelope_tile(float* value, std::int32_t* index, std::s
 }
 
 template <bool kNearest>
-void transform(const Mask& features, float* value, std::int32_t* index) {
+void transform(const Mask& features, float* value, std::int32_t* index, const Progress& progress) {
   const auto [nx, ny, nz] = features.grid.dims;
   const Vec3& spacing = features.grid.spacing;
   const double wx = spacing.x * spacing.x, wy = spacing.y * spacing.y, wz = spacing.z * spacing.z;
@@ -306,6 +306,7 @@ void transform(const Mask& features, float* value, std::int32_t* index) {
   tbb::parallel_for(tbb::blocked_range<int>(0, nz), [&](const tbb::blocked_range<int>& r) {
     Scratch& s = scratch.local();
     for (int k = r.begin(); k < r.end(); ++k) {
+      progress.check_cancelled();  // a slice takes well under a millisecond
       const std::size_t slice_start = std::size_t(k) * slice;
       for (int j = 0; j < ny; ++j) {
         const std::size_t row = slice_start + std::size_t(j) * nx;
@@ -328,6 +329,7 @@ void transform(const Mask& features, float* value, std::int32_t* index) {
       tbb::blocked_range<int>(0, ny * tiles_per_row), [&](const tbb::blocked_range<int>& r) {
         Scratch& s = scratch.local();
         for (int t = r.begin(); t < r.end(); ++t) {
+          progress.check_cancelled();
           const int j = t / tiles_per_row, i0 = (t % tiles_per_row) * kTileWidth;
           envelope_tile<kNearest>(value, index, std::size_t(j) * nx + i0,
                                   std::min(kTileWidth, nx - i0), nz, slice, wz, wz_q2.data(), s);
@@ -377,7 +379,8 @@ void check_input(const Mask& features) {
 
 }  // namespace
 
-void compute_feature_transform(const Mask& features, FeatureTransform& out, bool compute_nearest) {
+void compute_feature_transform(const Mask& features, FeatureTransform& out, bool compute_nearest,
+                               const Progress& progress) {
   check_input(features);
   const Grid& grid = features.grid;
   const std::size_t n = grid.voxel_count();
@@ -390,14 +393,16 @@ void compute_feature_transform(const Mask& features, FeatureTransform& out, bool
     out.nearest.data.clear();
   if (n == 0) return;
   if (compute_nearest)
-    transform<true>(features, out.squared_distance_mm2.data.data(), out.nearest.data.data());
+    transform<true>(features, out.squared_distance_mm2.data.data(), out.nearest.data.data(),
+                    progress);
   else
-    transform<false>(features, out.squared_distance_mm2.data.data(), nullptr);
+    transform<false>(features, out.squared_distance_mm2.data.data(), nullptr, progress);
 }
 
-FeatureTransform compute_feature_transform(const Mask& features, bool compute_nearest) {
+FeatureTransform compute_feature_transform(const Mask& features, bool compute_nearest,
+                                           const Progress& progress) {
   FeatureTransform out;
-  compute_feature_transform(features, out, compute_nearest);
+  compute_feature_transform(features, out, compute_nearest, progress);
   return out;
 }
 

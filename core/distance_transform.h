@@ -5,6 +5,7 @@
 
 #include <cstdint>
 
+#include "progress.h"
 #include "volume.h"
 
 namespace cvt {
@@ -16,13 +17,15 @@ struct FeatureTransform {
 
 // Features are the voxels where `features` is non-zero. Distances use features.grid.spacing.
 // Ties between equidistant features are broken deterministically (independent of threads).
-// compute_nearest=false skips the feature volume (its data is then left empty).
-FeatureTransform compute_feature_transform(const Mask& features, bool compute_nearest = true);
+// compute_nearest=false skips the feature volume (its data is then left empty). Checks
+// progress for a cancel every k-slice and every tile of lines (throws Cancelled).
+FeatureTransform compute_feature_transform(const Mask& features, bool compute_nearest = true,
+                                           const Progress& progress = {});
 
 // The same into `out`, reusing its volumes' memory when it is large enough: repeated transforms
 // then skip allocating and first-touching 4–8 bytes per voxel (page faults, kernel zeroing).
 // Whatever `out` held before is overwritten; compute_nearest=false empties out.nearest.data.
 void compute_feature_transform(const Mask& features, FeatureTransform& out,
-                               bool compute_nearest = true);
+                               bool compute_nearest = true, const Progress& progress = {});
 
 }  // namespace cvt

@@ -44,7 +44,7 @@ std::size_t subdivisions(const TriangleSurface& s, const Triangle& t, double h) 
 }
 
 // Used vertices, then per triangle the centroids of its k² sub-triangles.
-std::vector<Sample> distance_samples(const TriangleSurface& s, double h) {
+std::vector<Sample> distance_samples(const TriangleSurface& s, double h, const Progress& progress) {
   std::vector<char> used(s.vertices.size(), 0);
   for (const Triangle& t : s.triangles)
     for (std::int32_t v : t) used[std::size_t(v)] = 1;
@@ -59,6 +59,7 @@ std::vector<Sample> distance_samples(const TriangleSurface& s, double h) {
   const std::size_t offset = samples.size();
   samples.resize(offset + first.back());
   tbb::parallel_for(std::size_t(0), s.triangles.size(), [&](std::size_t t) {
+    if (t % 1024 == 0) progress.check_cancelled();
     const Triangle& tri = s.triangles[t];
     const Vec3 &a = s.vertices[tri[0]], u = s.vertices[tri[1]] - a, w = s.vertices[tri[2]] - a;
     const std::size_t k = subdivisions(s, tri, h);
@@ -85,7 +86,8 @@ std::size_t area_sample_count(const TriangleSurface& s, double h) {
 }
 
 // Distance of each sample to the nearest triangle of `target`.
-std::vector<double> distances(const std::vector<Sample>& samples, const TriangleSurface& target) {
+std::vector<double> distances(const std::vector<Sample>& samples, const TriangleSurface& target,
+                              const Progress& progress) {
   std::vector<Triangle3> triangles;
   triangles.reserve(target.triangles.size());
   for (const Triangle& t : target.triangles)
@@ -99,9 +101,13 @@ std::vector<double> distances(const std::vector<Sample>& samples, const Triangle
   Tree tree(triangles.begin(), triangles.end());
   tree.build();
   tree.accelerate_distance_queries();  // built now, not lazily inside the parallel loop
+  progress.check_cancelled();
+  // A thrown Cancelled cancels the other chunks and reaches the caller (TBB rethrows it).
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, samples.size(), 1024), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i)
+    for (std::size_t i = r.begin(); i != r.end(); ++i) {
+      if ((i - r.begin()) % 1024 == 0) progress.check_cancelled();
       d[i] = std::sqrt(tree.squared_distance(to_cgal(samples[i].position)));
+    }
   });
   return d;
 }
@@ -117,7 +123,7 @@ double diagonal(const TriangleSurface& s) {
 }  // namespace
 
 SurfaceDistance surface_distance(const TriangleSurface& a, const TriangleSurface& b,
-                                 const SurfaceDistanceOptions& options) {
+                                 const SurfaceDistanceOptions& options, const Progress& progress) {
   SurfaceDistance out;
   double h = options.sample_spacing_mm > 0 ? options.sample_spacing_mm
                                            : std::max(diagonal(a), diagonal(b)) / 200;
@@ -129,9 +135,11 @@ SurfaceDistance surface_distance(const TriangleSurface& a, const TriangleSurface
     h *= std::max(1.05, std::sqrt(double(n) / double(options.max_samples)));
   }
   out.sample_spacing_mm = h;
-  const std::vector<Sample> sa = distance_samples(a, h), sb = distance_samples(b, h);
+  const std::vector<Sample> sa = distance_samples(a, h, progress),
+                            sb = distance_samples(b, h, progress);
   out.samples_a = sa.size(), out.samples_b = sb.size();
-  const std::vector<double> da = distances(sa, b), db = distances(sb, a);
+  const std::vector<double> da = distances(sa, b, progress), db = distances(sb, a, progress);
+  progress.check_cancelled();
 
   // (distance, weight) over both directions, for the mean and the percentile.
   std::vector<std::pair<double, double>> all;
@@ -173,7 +181,7 @@ SurfaceDistance surface_distance(const TetMesh& a, const TetMesh& b,
 }
 
 FidelityReport compute_fidelity(const TetMesh& mesh, const Mask& object,
-                                const FidelityOptions& options) {
+                                const FidelityOptions& options, const Progress& progress) {
   FidelityReport rep;
   for (const Tet& t : mesh.tets) rep.mesh_volume_mm3 += signed_volume(mesh, t);
   const Vec3& s = object.grid.spacing;
@@ -184,7 +192,9 @@ FidelityReport compute_fidelity(const TetMesh& mesh, const Mask& object,
     rep.volume_error_percent =
         100.0 * (rep.mesh_volume_mm3 - rep.object_volume_mm3) / rep.object_volume_mm3;
 
+  progress.check_cancelled();
   const TriangleSurface reference = marching_cubes(object);
+  progress.check_cancelled();
   rep.object_surface_triangles = reference.triangles.size();
   const SurfaceTopology topology = surface_topology(reference.triangles, reference.vertices.size());
   rep.object_surface_euler = topology.euler_characteristic;
@@ -192,7 +202,8 @@ FidelityReport compute_fidelity(const TetMesh& mesh, const Mask& object,
   SurfaceDistanceOptions sd;
   sd.sample_spacing_mm = options.sample_spacing_voxels * std::min({s.x, s.y, s.z});
   sd.max_samples = options.max_samples;
-  rep.distance = surface_distance(boundary_surface(mesh), reference, sd);
+  progress.check_cancelled();
+  rep.distance = surface_distance(boundary_surface(mesh), reference, sd, progress);
   return rep;
 }
 

@@ -9,6 +9,7 @@
 #include "image.h"
 #include "marching_cubes.h"
 #include "object_selection.h"
+#include "progress.h"
 #include "tet_mesh.h"
 #include "volume.h"
 
@@ -34,8 +35,10 @@ struct SurfaceDistanceOptions {
   std::size_t max_samples = 4000000;  // area samples per surface; the spacing grows to stay below
 };
 
+// Checks progress for a cancel between steps and every thousand or so samples (throws Cancelled).
 SurfaceDistance surface_distance(const TriangleSurface& a, const TriangleSurface& b,
-                                 const SurfaceDistanceOptions& options = {});
+                                 const SurfaceDistanceOptions& options = {},
+                                 const Progress& progress = {});
 // Between the boundary surfaces of two tet meshes.
 SurfaceDistance surface_distance(const TetMesh& a, const TetMesh& b,
                                  const SurfaceDistanceOptions& options = {});
@@ -60,8 +63,9 @@ struct FidelityReport {
 };
 
 // Fidelity of `mesh` (world, mm) to `object` (non-zero voxels; world positions from its grid).
+// Takes seconds on a big object, so it checks progress for a cancel as surface_distance does.
 FidelityReport compute_fidelity(const TetMesh& mesh, const Mask& object,
-                                const FidelityOptions& options = {});
+                                const FidelityOptions& options = {}, const Progress& progress = {});
 
 // The object a mesh of `image` is judged against: the selection after stage 1's clean-up
 // (cavities filled, specks dropped), exactly as the pipeline builds it, so `cvtmesh quality

@@ -48,10 +48,11 @@ class SpacedPoints {
 };
 
 // Voxels whose mesh state differs from a 6-neighbour's: the mesh boundary, voxelised.
-Mask mesh_boundary_voxels(const Mask& inside) {
+Mask mesh_boundary_voxels(const Mask& inside, const Progress& progress) {
   Mask out(inside.grid, 0);
   const auto& d = inside.grid.dims;
-  for (int k = 0; k < d[2]; ++k)
+  for (int k = 0; k < d[2]; ++k) {
+    progress.check_cancelled();
     for (int j = 0; j < d[1]; ++j)
       for (int i = 0; i < d[0]; ++i) {
         const unsigned char s = inside.at(i, j, k);
@@ -63,6 +64,7 @@ Mask mesh_boundary_voxels(const Mask& inside) {
             break;
           }
       }
+  }
   return out;
 }
 
@@ -77,10 +79,12 @@ OccupancyFunction indicator_occupancy(const Volume<float>& indicator) {
   };
 }
 
-Mask voxelize(const TetMesh& mesh, const Grid& grid) {
+Mask voxelize(const TetMesh& mesh, const Grid& grid, const Progress& progress) {
   Mask inside(grid, 0);
   const double eps = 1e-9;
-  for (const Tet& t : mesh.tets) {
+  for (std::size_t n = 0; n < mesh.tets.size(); ++n) {
+    if (n % 4096 == 0) progress.check_cancelled();
+    const Tet& t = mesh.tets[n];
     std::array<Vec3, 4> c;
     Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
     for (int k = 0; k < 4; ++k) {
@@ -114,7 +118,7 @@ Mask voxelize(const TetMesh& mesh, const Grid& grid) {
 
 FidelityFix find_fidelity_fix(const Mask& mesh_inside, const PreprocessResult& pre,
                               const std::vector<Vec3>& existing, double tolerance_mm,
-                              double spacing_mm) {
+                              double spacing_mm, const Progress& progress) {
   const Mask& object = pre.object;
   const Grid& grid = object.grid;
   FidelityFix fix;
@@ -122,11 +126,13 @@ FidelityFix find_fidelity_fix(const Mask& mesh_inside, const PreprocessResult& p
   for (std::size_t v = 0; v < object.size() && !any; ++v) any = mesh_inside.data[v] != object.data[v];
   if (!any) return fix;
   // How far each voxel is from the mesh boundary; from the object boundary we know already.
-  const FeatureTransform to_mesh = compute_feature_transform(mesh_boundary_voxels(mesh_inside), false);
+  const FeatureTransform to_mesh =
+      compute_feature_transform(mesh_boundary_voxels(mesh_inside, progress), false, progress);
   SpacedPoints spaced(spacing_mm);
   for (const Vec3& p : existing) spaced.add(p);
   const double tolerance2 = tolerance_mm * tolerance_mm;
   for (std::size_t v = 0; v < object.size(); ++v) {
+    if (v % 65536 == 0) progress.check_cancelled();
     if (mesh_inside.data[v] == object.data[v]) continue;
     // Disagreeing voxel: the two boundaries are far apart near it when it lies deep on either
     // side (a pit or a bulge: far from the object boundary; a bridged channel: far from the
@@ -169,7 +175,8 @@ MeshGenerationResult build_refined_mesh(const PreprocessResult& pre, const std::
 
   const auto check = [&](const MeshGenerationResult& m, const std::vector<Vec3>& b) {
     progress("fidelity check", 0.95);
-    return find_fidelity_fix(voxelize(m.mesh, grid), pre, b, tolerance, spacing);
+    return find_fidelity_fix(voxelize(m.mesh, grid, progress), pre, b, tolerance, spacing,
+                             progress);
   };
 
   std::vector<Vec3> b = surface, i = interior;

@@ -25,7 +25,7 @@ struct FidelityRefinementOptions {
 OccupancyFunction indicator_occupancy(const Volume<float>& indicator);
 
 // Voxels of `grid` whose centre lies in a tet of `mesh` (closed tets, world coordinates).
-Mask voxelize(const TetMesh& mesh, const Grid& grid);
+Mask voxelize(const TetMesh& mesh, const Grid& grid, const Progress& progress = {});
 
 struct FidelityFix {
   std::size_t disagreeing_voxels = 0;  // where mesh and object differ by more than the tolerance
@@ -38,7 +38,7 @@ struct FidelityFix {
 // Where `mesh_inside` and pre.object disagree by more than the tolerance, and what to do there.
 FidelityFix find_fidelity_fix(const Mask& mesh_inside, const PreprocessResult& pre,
                               const std::vector<Vec3>& existing, double tolerance_mm,
-                              double spacing_mm);
+                              double spacing_mm, const Progress& progress = {});
 
 // Stage 5 with up to max_rounds of refinement; the result records what was added and dropped.
 // A small_tet_edge_mm of 0 becomes 2 × the largest voxel spacing here.

@@ -3,6 +3,7 @@
 // where the medial axis is far away.
 #pragma once
 
+#include "progress.h"
 #include "volume.h"
 
 namespace cvt {
@@ -19,6 +20,7 @@ struct LfsBounds {
 LfsBounds effective_lfs_bounds(const LfsOptions& options, const Mask& object);
 
 // medial_axis: non-zero on medial-axis voxels (compute_medial_axis).
-Volume<float> compute_local_feature_size(const Mask& medial_axis, const LfsBounds& bounds);
+Volume<float> compute_local_feature_size(const Mask& medial_axis, const LfsBounds& bounds,
+                                         const Progress& progress = {});
 
 }  // namespace cvt

@@ -15,7 +15,7 @@ double effective_min_separation_mm(const MedialAxisOptions& options, const Grid&
 }
 
 Mask compute_medial_axis(const Mask& object, const Volume<std::int32_t>& nearest_opposite,
-                         const MedialAxisOptions& options) {
+                         const MedialAxisOptions& options, const Progress& progress) {
   const Grid& g = object.grid;
   Mask axis(g, 0);
   const double lambda = effective_min_separation_mm(options, g);
@@ -30,6 +30,7 @@ Mask compute_medial_axis(const Mask& object, const Volume<std::int32_t>& nearest
   // Pairs (p, p + e_axis) are tested once each; a voxel may be marked from several pairs, so
   // marks are relaxed atomic stores of the same value.
   tbb::parallel_for(0, g.dims[2], [&](int k) {
+    progress.check_cancelled();
     for (int j = 0; j < g.dims[1]; ++j)
       for (int i = 0; i < g.dims[0]; ++i) {
         const std::size_t p = g.linear(i, j, k);

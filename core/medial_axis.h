@@ -8,6 +8,7 @@
 
 #include <cstdint>
 
+#include "progress.h"
 #include "volume.h"
 
 namespace cvt {
@@ -19,8 +20,9 @@ struct MedialAxisOptions {
 
 // 0 = not medial, 1 = inner medial axis (object voxel), 2 = outer medial axis (background voxel).
 // nearest_opposite: for every voxel the linear index of the nearest voxel of the other phase.
+// Checks progress for a cancel every k-slice.
 Mask compute_medial_axis(const Mask& object, const Volume<std::int32_t>& nearest_opposite,
-                         const MedialAxisOptions& options);
+                         const MedialAxisOptions& options, const Progress& progress = {});
 
 double effective_min_separation_mm(const MedialAxisOptions& options, const Grid& grid);
 

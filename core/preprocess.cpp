@@ -40,14 +40,14 @@ namespace {
 // Distance and nearest voxel of the other phase, for both phases, in one pair of volumes: the
 // inner transform (features = background) for object voxels, the outer one for background.
 void distance_to_other_phase(const Mask& object, Volume<float>& distance_mm,
-                             Volume<std::int32_t>& nearest) {
+                             Volume<std::int32_t>& nearest, const Progress& progress) {
   Mask background(object.grid, 0);
   for (std::size_t v = 0; v < object.size(); ++v) background.data[v] = !object.data[v];
-  FeatureTransform inner = compute_feature_transform(background);
+  FeatureTransform inner = compute_feature_transform(background, true, progress);
   background = Mask();
   distance_mm = std::move(inner.squared_distance_mm2);
   nearest = std::move(inner.nearest);
-  FeatureTransform outer = compute_feature_transform(object);
+  FeatureTransform outer = compute_feature_transform(object, true, progress);
   tbb::parallel_for(std::size_t(0), object.size(), [&](std::size_t v) {
     if (!object.data[v]) {
       distance_mm.data[v] = outer.squared_distance_mm2.data[v];
@@ -99,21 +99,22 @@ PreprocessResult preprocess(const Image& image, const PreprocessOptions& options
   {
     StepTimer t(r.steps, progress, "smoothed indicator");
     r.smoothing_sigma_mm = effective_smoothing_sigma_mm(options.smoothing_sigma_mm, g);
-    r.indicator = smooth_indicator(r.object, r.smoothing_sigma_mm);
+    r.indicator = smooth_indicator(r.object, r.smoothing_sigma_mm, progress);
   }
   {
     StepTimer t(r.steps, progress, "distance transform");
-    distance_to_other_phase(r.object, r.distance_mm, r.nearest_opposite);
+    distance_to_other_phase(r.object, r.distance_mm, r.nearest_opposite, progress);
   }
   {
     StepTimer t(r.steps, progress, "medial axis");
     r.medial_min_separation_mm = effective_min_separation_mm(options.medial_axis, g);
-    r.medial_axis = compute_medial_axis(r.object, r.nearest_opposite, options.medial_axis);
+    r.medial_axis =
+        compute_medial_axis(r.object, r.nearest_opposite, options.medial_axis, progress);
   }
   {
     StepTimer t(r.steps, progress, "local feature size");
     r.lfs_bounds = effective_lfs_bounds(options.lfs, r.object);
-    r.lfs_mm = compute_local_feature_size(r.medial_axis, r.lfs_bounds);
+    r.lfs_mm = compute_local_feature_size(r.medial_axis, r.lfs_bounds, progress);
   }
   {
     StepTimer t(r.steps, progress, "boundary voxels");

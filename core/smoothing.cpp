@@ -20,13 +20,15 @@ std::vector<float> gaussian_kernel(double sigma_voxels) {
 
 // Convolves every line along `axis` with `kernel`, clamping at the borders (the crop margin is
 // background, so clamping equals zero padding there).
-void convolve_axis(Volume<float>& f, int axis, const std::vector<float>& kernel) {
+void convolve_axis(Volume<float>& f, int axis, const std::vector<float>& kernel,
+                   const Progress& progress) {
   const Grid& g = f.grid;
   const int n = g.dims[axis];
   const int radius = int(kernel.size() / 2);
   const std::ptrdiff_t stride = axis == 0 ? 1 : (axis == 1 ? g.dims[0] : std::ptrdiff_t(g.dims[0]) * g.dims[1]);
   const int a1 = (axis + 1) % 3, a2 = (axis + 2) % 3;
   tbb::parallel_for(0, g.dims[a2], [&](int c2) {
+    progress.check_cancelled();
     std::vector<float> line(n);
     for (int c1 = 0; c1 < g.dims[a1]; ++c1) {
       std::array<int, 3> start{0, 0, 0};
@@ -38,7 +40,8 @@ void convolve_axis(Volume<float>& f, int axis, const std::vector<float>& kernel)
       if (std::all_of(line.begin(), line.end(), [&](float v) { return v == line[0]; })) continue;
       for (int t = 0; t < n; ++t) {
         float acc = 0;
-        for (int s = -radius; s <= radius; ++s) acc += kernel[s + radius] * line[std::clamp(t + s, 0, n - 1)];
+        for (int s = -radius; s <= radius; ++s)
+          acc += kernel[s + radius] * line[std::clamp(t + s, 0, n - 1)];
         base[t * stride] = acc;
       }
     }
@@ -47,14 +50,14 @@ void convolve_axis(Volume<float>& f, int axis, const std::vector<float>& kernel)
 
 }  // namespace
 
-Volume<float> smooth_indicator(const Mask& mask, double sigma_mm) {
+Volume<float> smooth_indicator(const Mask& mask, double sigma_mm, const Progress& progress) {
   Volume<float> f(mask.grid, 0.0f);
   for (std::size_t v = 0; v < mask.size(); ++v) f.data[v] = mask.data[v] ? 1.0f : 0.0f;
   if (sigma_mm <= 0) return f;
   for (int axis = 0; axis < 3; ++axis) {
     const double sigma_voxels = sigma_mm / mask.grid.spacing[axis];
     if (sigma_voxels < 0.2) continue;  // the kernel would be ≈ a delta
-    convolve_axis(f, axis, gaussian_kernel(sigma_voxels));
+    convolve_axis(f, axis, gaussian_kernel(sigma_voxels), progress);
   }
   return f;
 }

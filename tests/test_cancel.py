@@ -1,6 +1,9 @@
 #!/usr/bin/python3
 """Ctrl-C during `cvtmesh mesh` on the liver (scripts/fetch-data), at several moments and stages.
 
+The CLI's watchdog would end a run that does not stop by itself a quarter of a second after the
+signal; the runs here make its grace 30 s, so they time the stages' own cancellation checks.
+
 Usage: test_cancel.py CVTMESH SOURCE_DIR [TEST NAMES]   (ctest, Debian's /usr/bin/python3)
 """
 import os
@@ -16,19 +19,27 @@ import unittest
 CVTMESH = sys.argv[1] if len(sys.argv) > 1 else "build/app/cvtmesh"
 SOURCE = sys.argv[2] if len(sys.argv) > 2 else "."
 LIVER = os.path.join(SOURCE, "data", "liver.inr.gz")
+# Under ASan + UBSan everything runs several times slower, exiting a big process included.
+with open(CVTMESH, "rb") as binary:
+    SANITIZED = b"__asan_init" in binary.read()
+LIMIT_S = 4.0 if SANITIZED else 1.0
 
 
 class CtrlC(unittest.TestCase):
     """SIGINT during `cvtmesh mesh` on the liver, at several moments and stages: the run stops
     within a second with exit 130 and one line saying so, and leaves no file behind."""
 
-    def interrupt(self, when, *extra):
-        """when: seconds after the start, or the progress line after which to interrupt."""
+    def interrupt(self, when, *extra, nth=1, delay=0.0, watchdog=False):
+        """when: seconds after the start, or the progress step after whose nth line to wait
+        `delay` seconds and interrupt. watchdog: keep the CLI's quarter-second watchdog."""
+        env = dict(os.environ)
+        if not watchdog:
+            env["CVTMESH_CANCEL_GRACE_MS"] = "30000"
         with tempfile.TemporaryDirectory() as tmp:
             out = os.path.join(tmp, "liver.vtu")
             p = subprocess.Popen([CVTMESH, "mesh", LIVER, "-o", out, "--report",
                                   os.path.join(tmp, "r.json"), *extra],
-                                 stderr=subprocess.PIPE, text=True)
+                                 stderr=subprocess.PIPE, text=True, env=env)
             lines = queue.Queue()
             reader = threading.Thread(target=lambda: [lines.put(l) for l in p.stderr], daemon=True)
             reader.start()
@@ -37,8 +48,9 @@ class CtrlC(unittest.TestCase):
                 if isinstance(when, float):
                     time.sleep(when)
                 else:
-                    while not any(l.startswith("cvtmesh: " + when) for l in seen):
+                    while seen.count(f"cvtmesh: {when}\n") < nth:
                         seen.append(lines.get(timeout=600))
+                    time.sleep(delay)
                 self.assertIsNone(p.poll(), "finished before the interrupt:\n" + "".join(seen))
                 p.send_signal(signal.SIGINT)
                 sent = time.monotonic()
@@ -52,7 +64,8 @@ class CtrlC(unittest.TestCase):
             p.stderr.close()
             while not lines.empty():
                 seen.append(lines.get())
-            self.assertLess(took, 1.0, f"stopped {took:.2f} s after the signal")
+            self.assertLess(took, LIMIT_S, f"stopped {took:.2f} s after the signal, after:\n" +
+                            "".join(seen[-3:]))
             self.assertEqual(os.listdir(tmp), [], "output left behind")
             if p.returncode == -signal.SIGINT and not seen:
                 return  # still starting up (loading libraries): the default action, as it should
@@ -62,8 +75,8 @@ class CtrlC(unittest.TestCase):
     def test_early(self):
         self.interrupt(0.3)
 
-    def test_reading(self):
-        self.interrupt(1.0)
+    def test_stage_one_distance_transform(self):
+        self.interrupt("distance transform", delay=0.1)
 
     def test_stage_one(self):
         self.interrupt("local feature size")
@@ -77,11 +90,25 @@ class CtrlC(unittest.TestCase):
     def test_delaunay(self):
         self.interrupt("Delaunay")
 
-    def test_fidelity(self):
-        self.interrupt("fidelity")
+    def test_pinch_removal(self):
+        self.interrupt("pinch removal")
 
+    def test_fidelity_check(self):
+        self.interrupt("fidelity check")
+
+    # Fidelity evaluation (stage 7): marching cubes, then distance queries for a few seconds.
+    # compute_fidelity checks for a cancel, but core/pipeline.cpp does not hand it the run's
+    # Progress yet, so until it does the watchdog ends these.
+    def test_fidelity(self):
+        self.interrupt("fidelity", watchdog=True)
+
+    def test_fidelity_distances(self):
+        self.interrupt("fidelity", delay=2.0, watchdog=True)
+
+    # Stage 6 checks between the phases of a pass; on a loaded machine one phase of the liver's
+    # first pass can take over a second (1.2 s measured), so the watchdog stays on here.
     def test_optimisation(self):
-        self.interrupt("optimisation pass", "--optimize", "default")
+        self.interrupt("optimisation pass 1", "--optimize", "default", watchdog=True)
 
 
 if __name__ == "__main__":
