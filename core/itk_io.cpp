@@ -187,11 +187,15 @@ void require_complete_nifti(const std::string& path, std::size_t data_bytes) {
 // value that long (Name, Comment), overflows them, and NDims sizes arrays of 10 dimensions and
 // 4096 values. A header line without '=' or ':' can make it read on into the voxel data as
 // header; control characters and repeated fields corrupted its heap. All of these are refused
-// before MetaIO sees the file.
+// before MetaIO sees the file, and so are spacings that are not positive finite numbers (MetaIO
+// fails on NaN with "Invalid argument", ITK on 0 with its own words, and ITK's reader quietly
+// flips the axis of a negative one).
 void require_sane_metaimage_header(const std::string& path) {
   std::ifstream in(path, std::ios::binary);
   std::string line;
   std::set<std::string> keys;
+  double ndims = 0;
+  std::vector<std::pair<std::string, int>> spacing_values;  // (field, how many values)
   for (int number = 1; std::getline(in, line); ++number) {
     const auto fail = [&](const std::string& why) {
       throw InputError(path + ": bad MetaImage header line " + std::to_string(number) + " (" + why +
@@ -238,11 +242,26 @@ void require_sane_metaimage_header(const std::string& path) {
             (last - first) / step > 100000)
           fail("ElementDataFile pattern needs whole numbers first <= last and step >= 1");
       }
+      for (const auto& [field, count] : spacing_values)
+        if (count < ndims)
+          throw InputError(path + ": " + field + " gives " + std::to_string(count) +
+                           " voxel spacings for NDims = " + std::to_string(int(ndims)));
       return;  // the voxel data follows
+    }
+    if (key == "ElementSpacing" || key == "ElementSize") {  // MetaIO takes the size as spacing
+      std::istringstream values(line.substr(separator + 1));
+      spacing_values.push_back({key, 0});
+      for (std::string value; values >> value; ++spacing_values.back().second) {
+        char* end = nullptr;
+        const double mm = std::strtod(value.c_str(), &end);
+        if (end != value.c_str() + value.size() || !(std::isfinite(mm) && mm > 0))
+          throw InputError(path + ": voxel spacing " + value + " (" + key +
+                           ") is not a positive finite number");
+      }
     }
     if (key == "NDims") {
       char* end = nullptr;
-      const double ndims = std::strtod(line.c_str() + separator + 1, &end);
+      ndims = std::strtod(line.c_str() + separator + 1, &end);
       if (!(ndims >= 1 && ndims <= 10) || ndims != std::floor(ndims))
         fail("NDims must be a whole number from 1 to 10");
     }
