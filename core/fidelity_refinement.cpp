@@ -1,7 +1,11 @@
 #include "fidelity_refinement.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <unordered_map>
@@ -51,7 +55,7 @@ class SpacedPoints {
 Mask mesh_boundary_voxels(const Mask& inside, const Progress& progress) {
   Mask out(inside.grid, 0);
   const auto& d = inside.grid.dims;
-  for (int k = 0; k < d[2]; ++k) {
+  tbb::parallel_for(0, d[2], [&](int k) {  // each slice writes only its own voxels
     progress.check_cancelled();
     for (int j = 0; j < d[1]; ++j)
       for (int i = 0; i < d[0]; ++i) {
@@ -64,8 +68,41 @@ Mask mesh_boundary_voxels(const Mask& inside, const Progress& progress) {
             break;
           }
       }
-  }
+  });
   return out;
+}
+
+// Sets the voxels of `inside` whose centres lie in tet t (closed, with a little slack).
+void voxelize_tet(const TetMesh& mesh, const Tet& t, Mask& inside) {
+  const Grid& grid = inside.grid;
+  const double eps = 1e-9;
+  std::array<Vec3, 4> c;
+  Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
+  for (int k = 0; k < 4; ++k) {
+    c[k] = grid.world_to_index(mesh.vertices[t[k]]);
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], c[k][a]);
+      hi[a] = std::max(hi[a], c[k][a]);
+    }
+  }
+  // Barycentric coordinates through the inverse of [c1−c0, c2−c0, c3−c0] (index space).
+  const Vec3 e1 = c[1] - c[0], e2 = c[2] - c[0], e3 = c[3] - c[0];
+  const double det = dot(e1, cross(e2, e3));
+  if (std::abs(det) < 1e-12) return;
+  const Vec3 r1 = cross(e2, e3) / det, r2 = cross(e3, e1) / det, r3 = cross(e1, e2) / det;
+  std::array<int, 3> from, to;
+  for (int a = 0; a < 3; ++a) {
+    from[a] = std::max(0, int(std::ceil(lo[a] - eps)));
+    to[a] = std::min(grid.dims[a] - 1, int(std::floor(hi[a] + eps)));
+  }
+  for (int k = from[2]; k <= to[2]; ++k)
+    for (int j = from[1]; j <= to[1]; ++j)
+      for (int i = from[0]; i <= to[0]; ++i) {
+        const Vec3 p = Vec3{double(i), double(j), double(k)} - c[0];
+        const double b1 = dot(r1, p), b2 = dot(r2, p), b3 = dot(r3, p);
+        if (b1 >= -eps && b2 >= -eps && b3 >= -eps && b1 + b2 + b3 <= 1 + eps)
+          std::atomic_ref<unsigned char>(inside.at(i, j, k)).store(1, std::memory_order_relaxed);
+      }
 }
 
 }  // namespace
@@ -81,38 +118,14 @@ OccupancyFunction indicator_occupancy(const Volume<float>& indicator) {
 
 Mask voxelize(const TetMesh& mesh, const Grid& grid, const Progress& progress) {
   Mask inside(grid, 0);
-  const double eps = 1e-9;
-  for (std::size_t n = 0; n < mesh.tets.size(); ++n) {
-    if (n % 4096 == 0) progress.check_cancelled();
-    const Tet& t = mesh.tets[n];
-    std::array<Vec3, 4> c;
-    Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
-    for (int k = 0; k < 4; ++k) {
-      c[k] = grid.world_to_index(mesh.vertices[t[k]]);
-      for (int a = 0; a < 3; ++a) {
-        lo[a] = std::min(lo[a], c[k][a]);
-        hi[a] = std::max(hi[a], c[k][a]);
-      }
-    }
-    // Barycentric coordinates through the inverse of [c1−c0, c2−c0, c3−c0] (index space).
-    const Vec3 e1 = c[1] - c[0], e2 = c[2] - c[0], e3 = c[3] - c[0];
-    const double det = dot(e1, cross(e2, e3));
-    if (std::abs(det) < 1e-12) continue;
-    const Vec3 r1 = cross(e2, e3) / det, r2 = cross(e3, e1) / det, r3 = cross(e1, e2) / det;
-    std::array<int, 3> from, to;
-    for (int a = 0; a < 3; ++a) {
-      from[a] = std::max(0, int(std::ceil(lo[a] - eps)));
-      to[a] = std::min(grid.dims[a] - 1, int(std::floor(hi[a] + eps)));
-    }
-    for (int k = from[2]; k <= to[2]; ++k)
-      for (int j = from[1]; j <= to[1]; ++j)
-        for (int i = from[0]; i <= to[0]; ++i) {
-          const Vec3 p = Vec3{double(i), double(j), double(k)} - c[0];
-          const double b1 = dot(r1, p), b2 = dot(r2, p), b3 = dot(r3, p);
-          if (b1 >= -eps && b2 >= -eps && b3 >= -eps && b1 + b2 + b3 <= 1 + eps)
-            inside.at(i, j, k) = 1;
-        }
-  }
+  // Tets in parallel: neighbours share voxels, which they can only set to 1 (atomically), so
+  // the result does not depend on the order.
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh.tets.size(), 2048),
+                    [&](const tbb::blocked_range<std::size_t>& range) {
+                      progress.check_cancelled();
+                      for (std::size_t n = range.begin(); n != range.end(); ++n)
+                        voxelize_tet(mesh, mesh.tets[n], inside);
+                    });
   return inside;
 }
 
