@@ -135,17 +135,16 @@ SurfaceDistance surface_distance(const TriangleSurface& a, const TriangleSurface
     h *= std::max(1.05, std::sqrt(double(n) / double(options.max_samples)));
   }
   out.sample_spacing_mm = h;
-  const std::vector<Sample> sa = distance_samples(a, h, progress),
-                            sb = distance_samples(b, h, progress);
-  out.samples_a = sa.size(), out.samples_b = sb.size();
-  const std::vector<double> da = distances(sa, b, progress), db = distances(sb, a, progress);
-  progress.check_cancelled();
-
-  // (distance, weight) over both directions, for the mean and the percentile.
+  // (distance, weight) over both directions, for the mean and the percentile. One direction
+  // at a time, so its samples and distances are freed before the other's are made.
   std::vector<std::pair<double, double>> all;
-  all.reserve(sa.size() + sb.size());
-  auto one_side = [&](const std::vector<Sample>& s, const std::vector<double>& d, double& max,
-                      double& mean) {
+  auto one_side = [&](const TriangleSurface& from, const TriangleSurface& to,
+                      std::size_t& count, double& max, double& mean) {
+    const std::vector<Sample> s = distance_samples(from, h, progress);
+    const std::vector<double> d = distances(s, to, progress);
+    progress.check_cancelled();
+    count = s.size();
+    all.reserve(all.size() + s.size());
     double sum = 0, weight = 0;
     for (std::size_t i = 0; i < s.size(); ++i) {
       max = std::max(max, d[i]);
@@ -155,8 +154,8 @@ SurfaceDistance surface_distance(const TriangleSurface& a, const TriangleSurface
     mean = weight > 0 ? sum / weight : 0;
     return std::pair{sum, weight};
   };
-  const auto [sum_a, w_a] = one_side(sa, da, out.a_to_b_max_mm, out.a_to_b_mean_mm);
-  const auto [sum_b, w_b] = one_side(sb, db, out.b_to_a_max_mm, out.b_to_a_mean_mm);
+  const auto [sum_a, w_a] = one_side(a, b, out.samples_a, out.a_to_b_max_mm, out.a_to_b_mean_mm);
+  const auto [sum_b, w_b] = one_side(b, a, out.samples_b, out.b_to_a_max_mm, out.b_to_a_mean_mm);
   out.hausdorff_mm = std::max(out.a_to_b_max_mm, out.b_to_a_max_mm);
   out.mean_mm = w_a + w_b > 0 ? (sum_a + sum_b) / (w_a + w_b) : 0;
   tbb::parallel_sort(all.begin(), all.end());
