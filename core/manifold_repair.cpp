@@ -1,5 +1,7 @@
 #include "manifold_repair.h"
 
+#include <tbb/parallel_sort.h>
+
 #include <algorithm>
 #include <cmath>
 #include <map>
@@ -96,6 +98,22 @@ bool link_is_one_cycle(const std::vector<Edge>& l) {
   return visited == l.size();
 }
 
+// How many boundary triangles use each edge, in edge order (a sorted list, not a map: the
+// liver's boundary has ~150k edge uses).
+std::vector<std::pair<Edge, int>> count_edge_use(const std::vector<Triangle>& boundary) {
+  std::vector<Edge> edges;
+  edges.reserve(3 * boundary.size());
+  for (const Triangle& f : boundary)
+    for (int k = 0; k < 3; ++k) edges.push_back(edge(f[k], f[(k + 1) % 3]));
+  std::sort(edges.begin(), edges.end());
+  std::vector<std::pair<Edge, int>> use;
+  for (const Edge& e : edges) {
+    if (use.empty() || use.back().first != e) use.push_back({e, 0});
+    ++use.back().second;
+  }
+  return use;
+}
+
 // Boundary link of every vertex.
 std::vector<std::vector<Edge>> boundary_links(const std::vector<Triangle>& boundary,
                                               std::size_t vertex_count) {
@@ -134,10 +152,8 @@ ManifoldRepairReport repair_boundary_manifold(const std::vector<Vec3>& points,
     std::vector<char> remove(tets.size(), 0);
     const Star star(points.size(), tets);
 
-    // Boundary faces per edge, and the boundary link of every vertex.
-    std::map<Edge, int> edge_use;
-    for (const Triangle& f : boundary)
-      for (int k = 0; k < 3; ++k) ++edge_use[edge(f[k], f[(k + 1) % 3])];
+    // Boundary faces per edge (in edge order), and the boundary link of every vertex.
+    const std::vector<std::pair<Edge, int>> edge_use = count_edge_use(boundary);
     const auto link = boundary_links(boundary, points.size());
 
     // 1. Flat tets with a face on the boundary.
@@ -224,7 +240,7 @@ std::size_t remove_small_tet_components(const std::vector<Vec3>& points, std::ve
       std::sort(key.begin(), key.end());
       faces.push_back({key, std::int32_t(t)});
     }
-  std::sort(faces.begin(), faces.end());
+  tbb::parallel_sort(faces.begin(), faces.end());  // a total order: the same on any thread count
   std::vector<std::int32_t> parent(tets.size());
   std::iota(parent.begin(), parent.end(), 0);
   auto find = [&](std::int32_t x) {
