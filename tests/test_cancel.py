@@ -103,7 +103,7 @@ class CtrlC(unittest.TestCase):
         self.interrupt("fidelity", watchdog=True)
 
     def test_fidelity_distances(self):
-        self.interrupt("fidelity", delay=2.0, watchdog=True)
+        self.interrupt("fidelity", delay=1.0, watchdog=True)
 
     # Stage 6 checks between the phases of a pass; on a loaded machine one phase of the liver's
     # first pass can take over a second (1.2 s measured), so the watchdog stays on here.
