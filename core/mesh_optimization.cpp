@@ -122,6 +122,11 @@ bool MeshOptimizer::step(const Progress& progress) {
   const int pass = passes() + 1;
   progress("optimisation pass " + std::to_string(pass), double(pass - 1) / options_.max_passes);
   opt::WorkMesh& m = *work_;
+  m.progress = &progress;
+  struct Forget {  // the Progress lives only as long as this call
+    opt::WorkMesh& m;
+    ~Forget() { m.progress = nullptr; }
+  } forget{m};
   const double bad_below = 1;  // qualities are scaled so that bad means below 1
   double cpu = 0;
   auto timed = [&cpu](auto&& work) {

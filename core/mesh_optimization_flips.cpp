@@ -260,6 +260,7 @@ PassCounts improve_topology(WorkMesh& m, const TopologyOptions& options) {
     // order, each only while the tets it replaces are as planned (else the tet is tried again
     // in the next round). The result does not depend on the thread count.
     for (std::size_t first = 0; first < bad.size(); first += kChunk) {
+      m.check_cancelled();
       const std::size_t count = std::min(kChunk, bad.size() - first);
       const std::uint64_t planned_at = m.clock;
       plans.assign(count, Plan{});

@@ -235,6 +235,7 @@ PassCounts insert_vertices(WorkMesh& m, const InsertionOptions& o) {
     constexpr std::size_t kChunk = 64;
     std::size_t inserted = 0;
     for (std::size_t first = 0; first < bad.size(); first += kChunk) {
+      m.check_cancelled();
       const std::size_t count = std::min(kChunk, bad.size() - first);
       const std::uint64_t planned_at = m.clock;
       plans.assign(count, InsertPlan{});

@@ -115,6 +115,7 @@ std::vector<std::int32_t> move_in_classes(WorkMesh& m,
   std::vector<std::size_t> offset;
   std::vector<double> star_quality;
   for (const auto& cls : classes) {
+    m.check_cancelled();
     offset.assign(cls.size() + 1, 0);
     for (std::size_t i = 0; i < cls.size(); ++i)
       offset[i + 1] = offset[i] + m.vertex_tets[cls[i]].size();
@@ -219,6 +220,7 @@ PassCounts delaunay_flips(WorkMesh& m, const std::vector<std::int32_t>& seeds) {
       break;  // t is gone
     }
     if (queue.size() > 8 * m.tets.size()) break;  // safety: flips that cycle
+    if (head % 4096 == 0) m.check_cancelled();
   }
   return counts;
 }

@@ -9,6 +9,7 @@
 #include <limits>
 #include <vector>
 
+#include "progress.h"
 #include "tet_mesh.h"
 #include "volume.h"
 
@@ -88,6 +89,12 @@ class WorkMesh {
   std::vector<char> on_surface;  // boundary vertex on the level set: may slide along it (set by
                                  // the optimiser; empty = none)
   std::vector<std::int32_t> free_slots;  // dead slots, reused last-in first
+  // The running pass's cancel flag (may be null): the phases check it between chunks of work,
+  // where the mesh is whole, so a cancel stops within a fraction of a second.
+  const Progress* progress = nullptr;
+  void check_cancelled() const {
+    if (progress) progress->check_cancelled();
+  }
 
   // Change tracking, so that work which failed is not repeated on an unchanged neighbourhood:
   // a vertex's stamp is the clock at the last change of a tet around it (added, removed, or a

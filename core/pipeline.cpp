@@ -198,7 +198,8 @@ void Pipeline::run_stage(Stage s, const Progress& progress) {
       records_.push_back({"quality", q.count(), double(peak_rss_bytes()) / (1024.0 * 1024.0)});
       progress("fidelity", 0.5);
       const auto t1 = std::chrono::steady_clock::now();
-      fidelity_ = std::make_unique<FidelityReport>(compute_fidelity(mesh_->mesh, preprocess_->object));
+      fidelity_ = std::make_unique<FidelityReport>(
+          compute_fidelity(mesh_->mesh, preprocess_->object, {}, progress));
       const std::chrono::duration<double> f = std::chrono::steady_clock::now() - t1;
       records_.push_back({"fidelity", f.count(), double(peak_rss_bytes()) / (1024.0 * 1024.0)});
       done_[int(s)] = true;

@@ -96,19 +96,16 @@ class CtrlC(unittest.TestCase):
     def test_fidelity_check(self):
         self.interrupt("fidelity check")
 
-    # Fidelity evaluation (stage 7): marching cubes, then distance queries for a few seconds.
-    # compute_fidelity checks for a cancel, but core/pipeline.cpp does not hand it the run's
-    # Progress yet, so until it does the watchdog ends these.
+    # Fidelity evaluation: marching cubes, then distance queries for a few seconds.
     def test_fidelity(self):
-        self.interrupt("fidelity", watchdog=True)
+        self.interrupt("fidelity")
 
     def test_fidelity_distances(self):
-        self.interrupt("fidelity", delay=1.0, watchdog=True)
+        self.interrupt("fidelity", delay=1.0)
 
-    # Stage 6 checks between the phases of a pass; on a loaded machine one phase of the liver's
-    # first pass can take over a second (1.2 s measured), so the watchdog stays on here.
+    # Stage 6 checks between chunks of each phase of a pass.
     def test_optimisation(self):
-        self.interrupt("optimisation pass 1", "--optimize", "default", watchdog=True)
+        self.interrupt("optimisation pass 1", "--optimize", "default")
 
 
 if __name__ == "__main__":
