@@ -167,6 +167,7 @@ def metaimage_cases():
                                data=voxels(24, "B")))
     put(t, "truncated.mha", mha((5, 5, 5))[:-30])
     put(t, "truncated_compressed.mha", mha((5, 5, 5), compressed=True)[:-5])
+    put(t, "bad_spacing.mha", mha((2, 2, 2), extra="ElementSpacing = nan 1 -2\n"))
 
 
 # --- INRIMAGE-4 ----------------------------------------------------------------------------------
@@ -321,6 +322,9 @@ def preset_cases():
         '"interior_points": -9223372036854775808, "epsilon_mm": 1e308}')
     put(t, "escapes.json", '{"optimize": "n\\u006fne", "labels": [1e2]}')
     put(t, "truncated.json", '{"labels": [1, 2')
+    put(t, "optimization.json", json.dumps({"optimize": "default", "optimization": {
+        "target_dihedral_deg": 18, "max_passes": 3, "flips": False, "odt_passes": 1,
+        "global_flip_below": 2.5}}))
 
 
 nifti_cases()
