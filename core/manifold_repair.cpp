@@ -125,14 +125,6 @@ std::vector<std::vector<Edge>> boundary_links(const std::vector<Triangle>& bound
 
 }  // namespace
 
-std::vector<std::int32_t> pinched_boundary_vertices(std::size_t vertex_count,
-                                                    const std::vector<Tet>& tets) {
-  TetMesh view;
-  view.vertices.resize(vertex_count);
-  view.tets = tets;
-  return pinched_vertices(vertex_count, boundary_triangles(view));
-}
-
 std::vector<std::int32_t> pinched_vertices(std::size_t vertex_count,
                                            const std::vector<Triangle>& boundary) {
   const auto link = boundary_links(boundary, vertex_count);

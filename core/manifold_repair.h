@@ -21,11 +21,8 @@ struct ManifoldRepairReport {
   bool manifold = false;                // the boundary is a closed 2-manifold at the end
 };
 
-// Vertices where the boundary of `tets` is not a disc (their boundary link is not one cycle):
-// the ends of non-manifold edges and the points where two sheets of the boundary touch.
-std::vector<std::int32_t> pinched_boundary_vertices(std::size_t vertex_count,
-                                                    const std::vector<Tet>& tets);
-// The same from the boundary triangles themselves (in any order and orientation).
+// Vertices where a boundary (its triangles, in any order and orientation) is not a disc (their
+// link is not one cycle): the ends of non-manifold edges and the points where two sheets touch.
 std::vector<std::int32_t> pinched_vertices(std::size_t vertex_count,
                                            const std::vector<Triangle>& boundary);
 
