@@ -47,15 +47,7 @@ void validate(const TetMesh& mesh, const OptimizationOptions& o) {
   auto require = [](bool ok, const std::string& what) {
     if (!ok) throw InputError("mesh optimisation: " + what);
   };
-  require(o.target_dihedral_deg > 0 && o.target_dihedral_deg <= 60,
-          "target_dihedral_deg must be in (0, 60]");
-  require(o.max_passes >= 0 && o.smoothing_iterations >= 0 && o.odt_iterations >= 0 &&
-              o.odt_passes >= 0 && o.global_flip_passes >= 0,
-          "pass and iteration counts must be ≥ 0");
-  require(o.global_flip_below >= 1, "global_flip_below must be ≥ 1");
-  require(o.max_face_distance_voxels >= 0 && o.max_boundary_shift_mm >= 0 &&
-              o.surface_tolerance_voxels >= 0,
-          "distances must be ≥ 0");
+  cvt::validate(o);  // the option table's ranges, as presets and the CLI check them
   require(mesh.labels.empty() || mesh.labels.size() == mesh.tets.size(),
           "one label per tet expected");
   const std::int64_t n = std::int64_t(mesh.vertices.size());
