@@ -83,15 +83,12 @@ ParameterOptions::ParameterOptions(CLI::App* cmd, Scope scope) {
     std::string name = "--opt-" + std::string(f.key);
     std::replace(name.begin(), name.end(), '_', '-');
     const std::string help = std::string(f.tooltip) + " (with --optimize default)";
-    OptimizationOptions& o = given_.optimization;
-    CLI::Option* opt = f.real      ? cmd->add_option(name, o.*f.real, help)
-                       : f.integer ? cmd->add_option(name, o.*f.integer, help)
-                                   : cmd->add_option(name, o.*f.flag, help);
+    CLI::Option* opt = nullptr;
+    visit_field(f, given_.optimization,
+                [&](auto& member) { opt = cmd->add_option(name, member, help); });
     opt->group("Stage 6 (optimisation)");
     bindings_.push_back({opt, [this, f](Parameters& p) {
-                           if (f.real) p.optimization.*f.real = given_.optimization.*f.real;
-                           if (f.integer) p.optimization.*f.integer = given_.optimization.*f.integer;
-                           if (f.flag) p.optimization.*f.flag = given_.optimization.*f.flag;
+                           copy_field(f, given_.optimization, p.optimization);
                          }});
   }
   bind(cmd->add_option("--seed", given_.seed, "Seed of every random choice"), &Parameters::seed);

@@ -4,6 +4,7 @@
 #pragma once
 
 #include <string_view>
+#include <type_traits>
 #include <vector>
 
 namespace cvt {
@@ -57,6 +58,28 @@ struct OptimizationField {
 
 // Every member of OptimizationOptions, in the viewer's panel order.
 const std::vector<OptimizationField>& optimization_fields();
+
+// Calls fn with the member of `o` that `f` names (a double, int or bool reference; const when
+// `o` is), so readers and writers need not tell the three kinds apart.
+template <class Options, class F>
+void visit_field(const OptimizationField& f, Options& o, F&& fn) {
+  if (f.real)
+    fn(o.*f.real);
+  else if (f.integer)
+    fn(o.*f.integer);
+  else
+    fn(o.*f.flag);
+}
+// Copies the member `f` names from `from` to `to`.
+inline void copy_field(const OptimizationField& f, const OptimizationOptions& from,
+                       OptimizationOptions& to) {
+  visit_field(f, to, [&](auto& member) {
+    visit_field(f, from, [&](const auto& value) {
+      if constexpr (std::is_same_v<std::decay_t<decltype(member)>, std::decay_t<decltype(value)>>)
+        member = value;
+    });
+  });
+}
 
 // Throws InputError "optimization.KEY: must be in [lo, hi]" for a number out of its range.
 void validate(const OptimizationOptions& options);

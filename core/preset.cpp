@@ -92,9 +92,7 @@ void read_value(const json& j, const std::string& key, T& out) {
                                   [&](const OptimizationField& f) { return f.key == it.key(); });
       const std::string name = key + "." + it.key();
       if (f == fields.end()) throw InputError("unknown parameter '" + name + "'");
-      if (f->real) read_value(*it, name, out.*f->real);
-      if (f->integer) read_value(*it, name, out.*f->integer);
-      if (f->flag) read_value(*it, name, out.*f->flag);
+      visit_field(*f, out, [&](auto& member) { read_value(*it, name, member); });
     }
   } else {  // label list: "all" or an array of integers
     if (j.is_string() && j.get<std::string>() == "all") {
@@ -167,10 +165,8 @@ json to_json(const Parameters& parameters) {
     else if constexpr (std::is_same_v<T, std::vector<std::int64_t>>)
       j[key] = value.empty() ? json("all") : json(value);
     else if constexpr (std::is_same_v<T, OptimizationOptions>)
-      for (const OptimizationField& f : optimization_fields()) {
-        json& v = j[key][std::string(f.key)];
-        v = f.real ? json(value.*f.real) : f.integer ? json(value.*f.integer) : json(value.*f.flag);
-      }
+      for (const OptimizationField& f : optimization_fields())
+        visit_field(f, value, [&](const auto& member) { j[key][std::string(f.key)] = member; });
     else
       j[key] = value;
   });
