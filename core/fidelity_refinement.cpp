@@ -10,7 +10,6 @@
 #include <cstdint>
 #include <unordered_map>
 
-#include "distance_transform.h"
 #include "smoothing.h"
 #include "surface_sampling.h"
 
@@ -51,26 +50,49 @@ class SpacedPoints {
   std::unordered_map<std::uint64_t, std::vector<Vec3>> cells_;
 };
 
-// Voxels whose mesh state differs from a 6-neighbour's: the mesh boundary, voxelised.
-Mask mesh_boundary_voxels(const Mask& inside, const Progress& progress) {
-  Mask out(inside.grid, 0);
-  const auto& d = inside.grid.dims;
-  tbb::parallel_for(0, d[2], [&](int k) {  // each slice writes only its own voxels
-    progress.check_cancelled();
-    for (int j = 0; j < d[1]; ++j)
-      for (int i = 0; i < d[0]; ++i) {
-        const unsigned char s = inside.at(i, j, k);
-        const int n[6][3] = {{i - 1, j, k}, {i + 1, j, k}, {i, j - 1, k},
-                             {i, j + 1, k}, {i, j, k - 1}, {i, j, k + 1}};
-        for (const auto& q : n)
-          if (inside.grid.contains(q[0], q[1], q[2]) && inside.at(q[0], q[1], q[2]) != s) {
-            out.at(i, j, k) = 1;
-            break;
-          }
-      }
-  });
-  return out;
-}
+// Whether a voxel of the mesh boundary (one whose state differs from a 6-neighbour's) lies
+// within a radius of a voxel. Only the few voxels where mesh and object disagree ask, so a
+// search of the ball around each (nearest offsets first; most stop at once) beats a distance
+// transform of the whole grid.
+class MeshBoundaryProbe {
+ public:
+  MeshBoundaryProbe(const Mask& inside, double radius_mm) : inside_(inside) {
+    const Vec3& s = inside.grid.spacing;
+    int reach[3];
+    for (int a = 0; a < 3; ++a) reach[a] = int(std::floor(radius_mm / s[a]));
+    std::vector<std::pair<double, std::array<int, 3>>> ball;
+    for (int dk = -reach[2]; dk <= reach[2]; ++dk)
+      for (int dj = -reach[1]; dj <= reach[1]; ++dj)
+        for (int di = -reach[0]; di <= reach[0]; ++di) {
+          const double d2 = di * di * s.x * s.x + dj * dj * s.y * s.y + dk * dk * s.z * s.z;
+          if (d2 <= radius_mm * radius_mm) ball.push_back({d2, {di, dj, dk}});
+        }
+    std::stable_sort(ball.begin(), ball.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+    for (const auto& [d2, offset] : ball) offsets_.push_back(offset);
+  }
+
+  bool near(const std::array<int, 3>& v) const {
+    for (const auto& o : offsets_)
+      if (on_boundary(v[0] + o[0], v[1] + o[1], v[2] + o[2])) return true;
+    return false;
+  }
+
+ private:
+  bool on_boundary(int i, int j, int k) const {
+    const Grid& grid = inside_.grid;
+    if (!grid.contains(i, j, k)) return false;
+    const unsigned char s = inside_.at(i, j, k);
+    const int n[6][3] = {{i - 1, j, k}, {i + 1, j, k}, {i, j - 1, k},
+                         {i, j + 1, k}, {i, j, k - 1}, {i, j, k + 1}};
+    for (const auto& q : n)
+      if (grid.contains(q[0], q[1], q[2]) && inside_.at(q[0], q[1], q[2]) != s) return true;
+    return false;
+  }
+
+  const Mask& inside_;
+  std::vector<std::array<int, 3>> offsets_;
+};
 
 // Sets the voxels of `inside` whose centres lie in tet t (closed, with a little slack).
 void voxelize_tet(const TetMesh& mesh, const Tet& t, Mask& inside) {
@@ -138,21 +160,18 @@ FidelityFix find_fidelity_fix(const Mask& mesh_inside, const PreprocessResult& p
   bool any = false;
   for (std::size_t v = 0; v < object.size() && !any; ++v) any = mesh_inside.data[v] != object.data[v];
   if (!any) return fix;
-  // How far each voxel is from the mesh boundary; from the object boundary we know already.
-  const FeatureTransform to_mesh =
-      compute_feature_transform(mesh_boundary_voxels(mesh_inside, progress), false, progress);
+  // How far each voxel is from the object boundary we know already; from the mesh boundary,
+  // the probe tells whether it is within the tolerance.
+  const MeshBoundaryProbe mesh_boundary(mesh_inside, tolerance_mm);
   SpacedPoints spaced(spacing_mm);
   for (const Vec3& p : existing) spaced.add(p);
-  const double tolerance2 = tolerance_mm * tolerance_mm;
   for (std::size_t v = 0; v < object.size(); ++v) {
     if (v % 65536 == 0) progress.check_cancelled();
     if (mesh_inside.data[v] == object.data[v]) continue;
     // Disagreeing voxel: the two boundaries are far apart near it when it lies deep on either
     // side (a pit or a bulge: far from the object boundary; a bridged channel: far from the
     // mesh boundary).
-    if (pre.distance_mm.data[v] <= tolerance_mm &&
-        to_mesh.squared_distance_mm2.data[v] <= tolerance2)
-      continue;
+    if (pre.distance_mm.data[v] <= tolerance_mm && mesh_boundary.near(grid.ijk(v))) continue;
     ++fix.disagreeing_voxels;
     if (mesh_inside.data[v] && pre.indicator.data[v] < 0.5f)
       fix.outside_points.push_back(grid.voxel_to_world(v));
