@@ -1,10 +1,7 @@
 #include "manifold_repair.h"
 
-#include <tbb/parallel_sort.h>
-
 #include <algorithm>
 #include <cmath>
-#include <map>
 #include <numeric>
 
 namespace cvt {
@@ -58,11 +55,13 @@ std::vector<int> fan_classes(const std::vector<Tet>& tets, const std::vector<std
   return cls;
 }
 
-// Marks for removal every tet of `group` outside its largest fan; returns how many.
+// Marks for removal every tet of `group` outside its largest fan; returns how many it newly
+// marked (others may be marked already). `fans` receives the number of fans.
 std::size_t keep_largest_fan(const std::vector<Tet>& tets, const std::vector<std::int32_t>& group,
-                             std::vector<char>& remove) {
+                             std::vector<char>& remove, int* fans = nullptr) {
   int count = 0;
   const std::vector<int> cls = fan_classes(tets, group, count);
+  if (fans) *fans = count;
   if (count < 2) return 0;
   std::vector<int> size(count, 0);
   for (int c : cls) ++size[c];
@@ -77,25 +76,27 @@ std::size_t keep_largest_fan(const std::vector<Tet>& tets, const std::vector<std
 }
 
 // True when the link edges (the far edges of the boundary triangles around a vertex) form a
-// single closed cycle, i.e. the boundary is a disc around the vertex.
-bool link_is_one_cycle(const std::vector<Edge>& l) {
-  std::map<std::int32_t, std::vector<std::int32_t>> next;
-  for (const Edge& e : l) {
-    next[e.first].push_back(e.second);
-    next[e.second].push_back(e.first);
-  }
-  for (const auto& [x, ns] : next)
-    if (ns.size() != 2) return false;
+// single closed cycle, i.e. the boundary is a disc around the vertex. Links have a handful of
+// edges, so quadratic scans beat any map (this runs for every boundary vertex, every pass).
+bool link_is_one_cycle(const Edge* l, std::size_t m) {
+  // Every link vertex must have exactly two link edges.
+  for (std::size_t e = 0; e < m; ++e)
+    for (const std::int32_t x : {l[e].first, l[e].second}) {
+      int degree = 0;
+      for (std::size_t f = 0; f < m; ++f) degree += (l[f].first == x) + (l[f].second == x);
+      if (degree != 2) return false;
+    }
+  // Then the link is a union of cycles: walk the one through edge 0 and count its edges.
+  std::vector<char> used(m, 0);
+  used[0] = 1;
   std::size_t visited = 1;
-  std::int32_t prev = l[0].first, cur = l[0].second;
-  while (cur != l[0].first && visited <= l.size()) {
-    const auto& ns = next[cur];
-    const std::int32_t nxt = ns[0] == prev ? ns[1] : ns[0];
-    prev = cur;
-    cur = nxt;
-    ++visited;
+  for (std::int32_t cur = l[0].second; cur != l[0].first; ++visited) {
+    std::size_t f = 0;
+    while (used[f] || (l[f].first != cur && l[f].second != cur)) ++f;
+    used[f] = 1;
+    cur = l[f].first == cur ? l[f].second : l[f].first;
   }
-  return visited == l.size();
+  return visited == m;
 }
 
 // How many boundary triangles use each edge, in edge order (a sorted list, not a map: the
@@ -114,23 +115,34 @@ std::vector<std::pair<Edge, int>> count_edge_use(const std::vector<Triangle>& bo
   return use;
 }
 
-// Boundary link of every vertex.
-std::vector<std::vector<Edge>> boundary_links(const std::vector<Triangle>& boundary,
-                                              std::size_t vertex_count) {
-  std::vector<std::vector<Edge>> link(vertex_count);
-  for (const Triangle& f : boundary)
-    for (int k = 0; k < 3; ++k) link[f[k]].push_back(edge(f[(k + 1) % 3], f[(k + 2) % 3]));
-  return link;
-}
+// Boundary link of every vertex (CSR: vertex v's link edges are edges[start[v]..start[v+1])).
+struct BoundaryLinks {
+  std::vector<std::size_t> start;
+  std::vector<Edge> edges;
+  BoundaryLinks(const std::vector<Triangle>& boundary, std::size_t vertex_count)
+      : start(vertex_count + 1, 0), edges(3 * boundary.size()) {
+    for (const Triangle& f : boundary)
+      for (int k = 0; k < 3; ++k) ++start[f[k] + 1];
+    std::partial_sum(start.begin(), start.end(), start.begin());
+    std::vector<std::size_t> fill(start.begin(), start.end() - 1);
+    for (const Triangle& f : boundary)
+      for (int k = 0; k < 3; ++k) edges[fill[f[k]]++] = edge(f[(k + 1) % 3], f[(k + 2) % 3]);
+  }
+  // False for a vertex off the boundary.
+  bool pinched(std::size_t v) const {
+    const std::size_t m = start[v + 1] - start[v];
+    return m > 0 && !link_is_one_cycle(edges.data() + start[v], m);
+  }
+};
 
 }  // namespace
 
 std::vector<std::int32_t> pinched_vertices(std::size_t vertex_count,
                                            const std::vector<Triangle>& boundary) {
-  const auto link = boundary_links(boundary, vertex_count);
+  const BoundaryLinks links(boundary, vertex_count);
   std::vector<std::int32_t> pinched;
   for (std::size_t v = 0; v < vertex_count; ++v)
-    if (!link[v].empty() && !link_is_one_cycle(link[v])) pinched.push_back(std::int32_t(v));
+    if (links.pinched(v)) pinched.push_back(std::int32_t(v));
   return pinched;
 }
 
@@ -146,7 +158,7 @@ ManifoldRepairReport repair_boundary_manifold(const std::vector<Vec3>& points,
 
     // Boundary faces per edge (in edge order), and the boundary link of every vertex.
     const std::vector<std::pair<Edge, int>> edge_use = count_edge_use(boundary);
-    const auto link = boundary_links(boundary, points.size());
+    const BoundaryLinks links(boundary, points.size());
 
     // 1. Flat tets with a face on the boundary.
     std::size_t changed = 0;
@@ -179,11 +191,12 @@ ManifoldRepairReport repair_boundary_manifold(const std::vector<Vec3>& points,
     }
     // 3. Vertices whose boundary link is not one cycle: the star has several fans.
     for (std::size_t v = 0; v < points.size(); ++v) {
-      if (link[v].empty() || link_is_one_cycle(link[v])) continue;
+      if (!links.pinched(v)) continue;
       const std::vector<std::int32_t> group(star.tets.begin() + star.start[v],
                                             star.tets.begin() + star.start[v + 1]);
-      std::size_t n = keep_largest_fan(tets, group, remove);
-      if (n == 0) {
+      int fans = 0;
+      std::size_t n = keep_largest_fan(tets, group, remove, &fans);
+      if (fans == 1) {
         // One fan of tets, yet the empty space around v has several parts (two concavities
         // touch at v): removing v's star merges them.
         for (std::int32_t t : group)
@@ -223,25 +236,17 @@ std::size_t remove_small_tet_components(const std::vector<Vec3>& points, std::ve
                                         double fraction,
                                         std::vector<std::array<Vec3, 4>>* removed_out) {
   if (tets.empty()) return 0;
-  // Union tets that share a face: sort (face, tet) pairs so equal faces are adjacent.
-  std::vector<std::pair<std::array<std::int32_t, 3>, std::int32_t>> faces;
-  faces.reserve(4 * tets.size());
-  for (std::size_t t = 0; t < tets.size(); ++t)
-    for (const Triangle& f : outward_faces(tets[t])) {
-      std::array<std::int32_t, 3> key{f[0], f[1], f[2]};
-      std::sort(key.begin(), key.end());
-      faces.push_back({key, std::int32_t(t)});
-    }
-  tbb::parallel_sort(faces.begin(), faces.end());  // a total order: the same on any thread count
+  // Union tets that share a face.
+  const std::vector<std::int64_t> neighbour = face_neighbours(points.size(), tets);
   std::vector<std::int32_t> parent(tets.size());
   std::iota(parent.begin(), parent.end(), 0);
   auto find = [&](std::int32_t x) {
     while (parent[x] != x) x = parent[x] = parent[parent[x]];
     return x;
   };
-  for (std::size_t i = 1; i < faces.size(); ++i)
-    if (faces[i].first == faces[i - 1].first) {
-      const std::int32_t a = find(faces[i].second), b = find(faces[i - 1].second);
+  for (std::size_t f = 0; f < neighbour.size(); ++f)
+    if (neighbour[f] >= 0) {
+      const std::int32_t a = find(std::int32_t(f / 4)), b = find(std::int32_t(neighbour[f] / 4));
       if (a != b) parent[std::max(a, b)] = std::min(a, b);  // smallest index as root: deterministic
     }
   const TetMesh view{points, {}, {}};

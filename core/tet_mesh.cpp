@@ -7,19 +7,17 @@
 #include "mesh_io.h"
 
 namespace cvt {
-namespace detail {
 
-std::vector<std::int64_t> boundary_faces(const TetMesh& mesh) {
-  const std::size_t num_vertices = mesh.vertices.size();
-  const std::size_t num_faces = 4 * mesh.tets.size();
+std::vector<std::int64_t> face_neighbours(std::size_t num_vertices, const std::vector<Tet>& tets) {
+  const std::size_t num_faces = 4 * tets.size();
   // Faces are bucketed by their smallest vertex (a counting sort, linear time); a bucket
   // holds only the few faces around one vertex, so sorting inside buckets is cheap. This is
   // several times faster than sorting all 4·#tets keyed faces for meshes of ~1M tets.
   std::vector<std::int64_t> bucket_start(num_vertices + 1, 0);
-  for (const Tet& t : mesh.tets) {
+  for (const Tet& t : tets) {
     for (std::int32_t v : t) {
       if (v < 0 || std::size_t(v) >= num_vertices) {
-        throw std::invalid_argument("boundary_faces: tet vertex " + std::to_string(v) +
+        throw std::invalid_argument("tet vertex " + std::to_string(v) +
                                     " out of range");
       }
     }
@@ -34,8 +32,8 @@ std::vector<std::int64_t> boundary_faces(const TetMesh& mesh) {
   };
   std::vector<Entry> entries(num_faces);
   std::vector<std::int64_t> fill(bucket_start.begin(), bucket_start.end() - 1);
-  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
-    const auto faces = outward_faces(mesh.tets[t]);
+  for (std::size_t t = 0; t < tets.size(); ++t) {
+    const auto faces = outward_faces(tets[t]);
     for (int i = 0; i < 4; ++i) {
       std::array<std::int32_t, 3> f = faces[i];
       std::sort(f.begin(), f.end());
@@ -44,8 +42,8 @@ std::vector<std::int64_t> boundary_faces(const TetMesh& mesh) {
     }
   }
 
-  // A face is on the boundary when no other face in its bucket has the same key.
-  std::vector<char> on_boundary(num_faces, 0);
+  // Faces with the same key in a bucket are the same triangle.
+  std::vector<std::int64_t> neighbour(num_faces, -1);
   for (std::size_t v = 0; v < num_vertices; ++v) {
     const auto first = entries.begin() + bucket_start[v],
                last = entries.begin() + bucket_start[v + 1];
@@ -53,15 +51,23 @@ std::vector<std::int64_t> boundary_faces(const TetMesh& mesh) {
     for (auto run = first; run != last;) {
       auto end = run + 1;
       while (end != last && end->key == run->key) ++end;
-      if (end - run == 1) on_boundary[run->face] = 1;
+      if (end - run > 1)
+        for (auto f = run; f != end; ++f) neighbour[f->face] = (f + 1 == end ? run : f + 1)->face;
       run = end;
     }
   }
+  return neighbour;
+}
+
+namespace detail {
+
+std::vector<std::int64_t> boundary_faces(const TetMesh& mesh) {
+  const std::vector<std::int64_t> neighbour = face_neighbours(mesh.vertices.size(), mesh.tets);
 
   // Reported in (tet, face) order, which does not depend on the sort: deterministic.
   std::vector<std::int64_t> result;
-  for (std::size_t f = 0; f < num_faces; ++f) {
-    if (on_boundary[f]) result.push_back(std::int64_t(f));
+  for (std::size_t f = 0; f < neighbour.size(); ++f) {
+    if (neighbour[f] < 0) result.push_back(std::int64_t(f));
   }
   return result;
 }

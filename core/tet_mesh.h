@@ -30,6 +30,12 @@ inline std::array<Triangle, 4> outward_faces(const Tet& t) {
   return {{{t[1], t[2], t[3]}, {t[0], t[3], t[2]}, {t[0], t[1], t[3]}, {t[0], t[2], t[1]}}};
 }
 
+// For each face 4·t + k (k indexing outward_faces(tets[t])): a face of another tet with the
+// same three corners, or −1 where there is none (a boundary face). Where more than two tets
+// share a face (an invalid mesh), they are linked in a cycle. Corners must be in
+// [0, vertex_count) (std::invalid_argument otherwise).
+std::vector<std::int64_t> face_neighbours(std::size_t vertex_count, const std::vector<Tet>& tets);
+
 // Faces used by exactly one tet, oriented outward (the mesh's boundary surface).
 std::vector<Triangle> boundary_triangles(const TetMesh& mesh);
 

@@ -5,6 +5,7 @@
 #include <unistd.h>
 #include <zlib.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -157,6 +158,30 @@ TEST(BoundaryTriangles, OutwardClosedAndDeterministic) {
   }
   EXPECT_NEAR(enclosed, total_volume(m), 1e-12);
   EXPECT_EQ(boundary_triangles(m), tris);
+}
+
+TEST(FaceNeighbours, PairsSharedFacesAndLinksAFaceOfThreeTetsInACycle) {
+  // Tets 0 and 1 share face {1,2,3}; tets 2, 3 and 4 all share face {5,6,7} (invalid mesh).
+  const std::vector<Tet> tets = {{0, 1, 2, 3}, {4, 1, 3, 2}, {5, 6, 7, 8}, {9, 5, 7, 6}, {10, 5, 6, 7}};
+  const std::vector<std::int64_t> n = face_neighbours(11, tets);
+  ASSERT_EQ(n.size(), 20u);
+  const auto corners = [&](std::int64_t f) {
+    Triangle t = outward_faces(tets[f / 4])[f % 4];
+    std::sort(t.begin(), t.end());
+    return t;
+  };
+  int shared = 0;
+  for (std::int64_t f = 0; f < 20; ++f) {
+    if (n[f] < 0) continue;
+    ++shared;
+    EXPECT_NE(n[f] / 4, f / 4);
+    EXPECT_EQ(corners(n[f]), corners(f));
+  }
+  EXPECT_EQ(shared, 5);            // 2 faces of the pair, 3 of the triple
+  EXPECT_EQ(n[0], 4);              // face {1,2,3}: tet 0 face 0 and tet 1 face 0
+  EXPECT_EQ(n[4], 0);
+  EXPECT_EQ(n[n[n[11]]], 11);      // a triple is a 3-cycle (face {5,6,7} of tet 2)
+  EXPECT_THROW(face_neighbours(4, {{0, 1, 2, 4}}), std::invalid_argument);
 }
 
 TEST(BoundaryTriangles, AMillionTetsGiveTheBoxSurface) {
