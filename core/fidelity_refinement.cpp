@@ -212,7 +212,8 @@ MeshGenerationResult build_refined_mesh(const PreprocessResult& pre, const std::
   };
 
   std::vector<Vec3> b = surface, i = interior;
-  MeshGenerationResult result = build_delaunay_mesh(b, i, occupancy, mesh_options, progress);
+  DelaunayMesher mesher(b, i, occupancy, mesh_options, progress);
+  MeshGenerationResult result = mesher.mesh();
   std::vector<FidelityRefinementRound> rounds;
   std::vector<Vec3> added_all, dropped_all;
   FidelityFix fix;
@@ -227,15 +228,23 @@ MeshGenerationResult build_refined_mesh(const PreprocessResult& pre, const std::
     SpacedPoints near(2.0 * spacing);
     for (const Vec3& p : fix.samples) near.add(p);
     std::vector<Vec3> kept, dropped;
+    std::vector<int> dropped_index;
     kept.reserve(i.size());
-    for (const Vec3& p : i) (near.has_neighbour(p) ? dropped : kept).push_back(p);
+    for (std::size_t n = 0; n < i.size(); ++n) {
+      if (!near.has_neighbour(i[n])) {
+        kept.push_back(i[n]);
+        continue;
+      }
+      dropped.push_back(i[n]);
+      dropped_index.push_back(int(n));
+    }
     r.dropped_interior = dropped.size();
     std::vector<Vec3> next_b = b;
     next_b.insert(next_b.end(), fix.samples.begin(), fix.samples.end());
-    MeshGenerationOptions next_options = mesh_options;
-    next_options.outside_points.insert(next_options.outside_points.end(),
-                                       fix.outside_points.begin(), fix.outside_points.end());
-    MeshGenerationResult next = build_delaunay_mesh(next_b, kept, occupancy, next_options, progress);
+    // The triangulation changes only around the new samples; a rejected round ends
+    // refinement, so the mesher is not needed in its old state again.
+    mesher.refine(fix.samples, dropped_index, fix.outside_points);
+    MeshGenerationResult next = mesher.mesh();
     FidelityFix next_fix = check(next, next_b);
     // A round must reduce the disagreement, or its mesh is dropped and refinement ends.
     r.accepted = next_fix.disagreeing_voxels < fix.disagreeing_voxels;
@@ -245,7 +254,6 @@ MeshGenerationResult build_refined_mesh(const PreprocessResult& pre, const std::
     dropped_all.insert(dropped_all.end(), dropped.begin(), dropped.end());
     b = std::move(next_b);
     i = std::move(kept);
-    mesh_options = std::move(next_options);
     result = std::move(next);
     fix = std::move(next_fix);
   }

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <unordered_map>
 
 #include <CGAL/Delaunay_triangulation_3.h>
 #include <CGAL/Delaunay_triangulation_cell_base_3.h>
@@ -40,7 +41,10 @@ enum CellFate : int { kept_cell, pole_cell, outside_cell };
 Point to_point(const Vec3& v) { return {v.x, v.y, v.z}; }
 Vec3 to_vec(const Point& p) { return {p.x(), p.y(), p.z()}; }
 
-Delaunay triangulate(const std::vector<std::pair<Point, int>>& points, const Progress& progress) {
+// handles (when given) receives each input point's vertex; a point equal to an earlier one
+// shares its vertex, which keeps the earlier point's info.
+Delaunay triangulate(const std::vector<std::pair<Point, int>>& points, const Progress& progress,
+                     std::vector<Delaunay::Vertex_handle>* handles = nullptr) {
   // CGAL's range insertion, step for step (spatial sort, then each point from the previous
   // one's vertex), so the triangulation is the same; but it takes ~0.3 s on the liver, so a
   // cancel is checked every few thousand points. With distinct inputs the result is unique up
@@ -54,11 +58,14 @@ Delaunay triangulate(const std::vector<std::pair<Point, int>>& points, const Pro
       CGAL::Spatial_sort_traits_adapter_3<Kernel, CGAL::Pointer_property_map<Point>::type>;
   CGAL::spatial_sort(order.begin(), order.end(), SortTraits(CGAL::make_property_map(p), Kernel()));
   Delaunay dt;
+  if (handles) handles->assign(points.size(), Delaunay::Vertex_handle());
   Delaunay::Vertex_handle hint;
   for (std::size_t n = 0; n < order.size(); ++n) {
     if (n % 4096 == 0) progress.check_cancelled();
+    const std::size_t before = dt.number_of_vertices();
     hint = dt.insert(p[order[n]], hint);
-    if (hint != Delaunay::Vertex_handle()) hint->info() = points[order[n]].second;
+    if (dt.number_of_vertices() > before) hint->info() = points[order[n]].second;
+    if (handles) (*handles)[order[n]] = hint;
   }
   return dt;
 }
@@ -156,6 +163,80 @@ std::vector<Triangle> kept_boundary(const Delaunay& dt) {
   return faces;
 }
 
+// What the poles of hull samples need: B's centroid (behind every hull facet) and a distance
+// far outside B.
+struct PoleFrame {
+  Vec3 centroid{0, 0, 0};
+  double far = 0;
+};
+
+PoleFrame pole_frame(const std::vector<Vec3>& surface) {
+  PoleFrame frame;
+  for (const Vec3& p : surface) frame.centroid += p;
+  frame.centroid = frame.centroid / double(surface.size());
+  frame.far = 4.0 * bounding_diagonal(surface);
+  return frame;
+}
+
+// Appends the poles of the sample at v of Delaunay(B) (paper III-F): the farthest Voronoi
+// vertex, and the farthest on the opposite side; for a sample on the convex hull, a point far
+// out along the outward normal.
+void poles_of(const Delaunay& dt, Delaunay::Vertex_handle v, const PoleFrame& frame,
+              std::vector<Delaunay::Cell_handle>& cells, std::vector<Vec3>& poles) {
+  const Vec3 s = to_vec(v->point());
+  cells.clear();
+  dt.incident_cells(v, std::back_inserter(cells));
+  Vec3 outward{0, 0, 0};
+  bool on_hull = false;
+  double best = -1;
+  Vec3 first{};
+  for (auto c : cells) {
+    if (dt.is_infinite(c)) {
+      // The hull facet of this infinite cell; its outward normal points away from the hull.
+      on_hull = true;
+      const int inf = c->index(dt.infinite_vertex());
+      const Vec3 a = to_vec(c->vertex((inf + 1) & 3)->point()),
+                 b = to_vec(c->vertex((inf + 2) & 3)->point()),
+                 d = to_vec(c->vertex((inf + 3) & 3)->point());
+      Vec3 n = cross(b - a, d - a);
+      // The hull is convex, so the point set's centroid lies behind every hull facet.
+      if (dot(n, a - frame.centroid) < 0) n = n * -1.0;
+      outward += n;
+      continue;
+    }
+    const Vec3 centre = to_vec(dt.dual(c));
+    const double d2 = squared_distance(centre, s);
+    if (d2 > best) {
+      best = d2;
+      first = centre;
+    }
+  }
+  Vec3 direction;
+  if (on_hull) {
+    const double len = norm(outward);
+    if (len == 0) return;
+    direction = outward / len;
+    first = s + direction * frame.far;
+  } else {
+    direction = first - s;
+  }
+  poles.push_back(first);
+  // The second pole: the farthest Voronoi vertex on the other side of s.
+  double second_best = -1;
+  Vec3 second{};
+  for (auto c : cells) {
+    if (dt.is_infinite(c)) continue;
+    const Vec3 centre = to_vec(dt.dual(c));
+    if (dot(centre - s, direction) >= 0) continue;
+    const double d2 = squared_distance(centre, s);
+    if (d2 > second_best) {
+      second_best = d2;
+      second = centre;
+    }
+  }
+  if (second_best > 0) poles.push_back(second);
+}
+
 }  // namespace
 
 std::vector<Vec3> compute_poles(const std::vector<Vec3>& surface, const Progress& progress) {
@@ -163,103 +244,214 @@ std::vector<Vec3> compute_poles(const std::vector<Vec3>& surface, const Progress
   pts.reserve(surface.size());
   for (std::size_t i = 0; i < surface.size(); ++i) pts.push_back({to_point(surface[i]), int(i)});
   const Delaunay dt = triangulate(pts, progress);
-  const double far = 4.0 * bounding_diagonal(surface);
-  Vec3 centroid{0, 0, 0};
-  for (const Vec3& p : surface) centroid += p;
-  centroid = centroid / double(surface.size());
+  const PoleFrame frame = pole_frame(surface);
   std::vector<Vec3> poles;
   std::vector<Delaunay::Cell_handle> cells;
-  for (auto v = dt.finite_vertices_begin(); v != dt.finite_vertices_end(); ++v) {
-    const Vec3 s = to_vec(v->point());
-    cells.clear();
-    dt.incident_cells(v, std::back_inserter(cells));
-    Vec3 outward{0, 0, 0};
-    bool on_hull = false;
-    double best = -1;
-    Vec3 first{};
-    for (auto c : cells) {
-      if (dt.is_infinite(c)) {
-        // The hull facet of this infinite cell; its outward normal points away from the hull.
-        on_hull = true;
-        const int inf = c->index(dt.infinite_vertex());
-        const Vec3 a = to_vec(c->vertex((inf + 1) & 3)->point()),
-                   b = to_vec(c->vertex((inf + 2) & 3)->point()),
-                   d = to_vec(c->vertex((inf + 3) & 3)->point());
-        Vec3 n = cross(b - a, d - a);
-        // The hull is convex, so the point set's centroid lies behind every hull facet.
-        if (dot(n, a - centroid) < 0) n = n * -1.0;
-        outward += n;
-        continue;
-      }
-      const Vec3 centre = to_vec(dt.dual(c));
-      const double d2 = squared_distance(centre, s);
-      if (d2 > best) {
-        best = d2;
-        first = centre;
-      }
-    }
-    Vec3 direction;
-    if (on_hull) {
-      const double len = norm(outward);
-      if (len == 0) continue;
-      direction = outward / len;
-      first = s + direction * far;
-    } else {
-      direction = first - s;
-    }
-    poles.push_back(first);
-    // The second pole: the farthest Voronoi vertex on the other side of s.
-    double second_best = -1;
-    Vec3 second{};
-    for (auto c : cells) {
-      if (dt.is_infinite(c)) continue;
-      const Vec3 centre = to_vec(dt.dual(c));
-      if (dot(centre - s, direction) >= 0) continue;
-      const double d2 = squared_distance(centre, s);
-      if (d2 > second_best) {
-        second_best = d2;
-        second = centre;
-      }
-    }
-    if (second_best > 0) poles.push_back(second);
-  }
+  for (auto v = dt.finite_vertices_begin(); v != dt.finite_vertices_end(); ++v)
+    poles_of(dt, v, frame, cells, poles);
   return poles;
 }
 
-MeshGenerationResult build_delaunay_mesh(const std::vector<Vec3>& surface,
-                                         const std::vector<Vec3>& interior,
-                                         const OccupancyFunction& occupancy,
-                                         const MeshGenerationOptions& options,
-                                         const Progress& progress) {
-  if (surface.size() < 4) throw InputError("mesh generation: fewer than 4 surface samples");
-  MeshGenerationResult out;
-  progress("poles", 0.0);
-  for (const Vec3& pole : compute_poles(surface, progress)) {
-    const double o = occupancy(pole);
-    if (o >= options.inside_from)
-      out.interior_poles.push_back(pole);
-    else if (o < options.pole_outside_below)
-      out.exterior_poles.push_back(pole);
-    else
-      ++out.near_surface_poles;
+// What stage 5 keeps between rounds: Delaunay(B) for the poles, each sample's poles, and
+// Delaunay(B ∪ I ∪ EP) with the cells' cached rule results.
+struct DelaunayMesher::State {
+  enum class PoleKind : unsigned char { interior, exterior, near_surface };
+  struct Pole {
+    Vec3 at;
+    PoleKind kind;
+    Delaunay::Vertex_handle vertex;  // an exterior pole's vertex of dt (null if it is a sample)
+  };
+
+  OccupancyFunction occupancy;
+  MeshGenerationOptions options;
+  Progress progress;
+  std::vector<Vec3> surface, interior;  // B, and I as inserted (nudged)
+  Delaunay samples_dt;                  // Delaunay(B); vertex info: index in B
+  PoleFrame frame;
+  std::vector<std::vector<Pole>> poles;  // per sample of B
+  Delaunay dt;                           // vertex info: index in B ∪ I, or −1 for a pole
+  std::vector<Delaunay::Vertex_handle> handle;  // per sample of B ∪ I; null once deleted
+  std::unordered_map<const void*, int> pole_uses;  // samples whose exterior pole a vertex is
+  std::vector<int> pinched;  // samples rule 3 deleted since the last refine (index in B ∪ I)
+
+  std::vector<Pole> classify(const std::vector<Vec3>& at) const {
+    std::vector<Pole> out;
+    for (const Vec3& p : at) {
+      const double o = occupancy(p);
+      out.push_back({p,
+                     o >= options.inside_from          ? PoleKind::interior
+                     : o < options.pole_outside_below ? PoleKind::exterior
+                                                        : PoleKind::near_surface,
+                     {}});
+    }
+    return out;
   }
+
+  // Poles of B's sample at vertex v of samples_dt.
+  std::vector<Pole> poles_at(Delaunay::Vertex_handle v) const {
+    std::vector<Delaunay::Cell_handle> cells;
+    std::vector<Vec3> at;
+    poles_of(samples_dt, v, frame, cells, at);
+    return classify(at);
+  }
+
+  // An exterior pole joins dt (or counts one more use of the vertex already there).
+  void insert_pole(Pole& pole) {
+    const std::size_t before = dt.number_of_vertices();
+    const Delaunay::Vertex_handle v = dt.insert(to_point(pole.at));
+    if (dt.number_of_vertices() > before) v->info() = -1;
+    if (v->info() >= 0) return;  // the point is a sample's: nothing to remove later
+    pole.vertex = v;
+    ++pole_uses[&*v];
+  }
+};
+
+DelaunayMesher::DelaunayMesher(const std::vector<Vec3>& surface,
+                               const std::vector<Vec3>& interior,
+                               const OccupancyFunction& occupancy,
+                               const MeshGenerationOptions& options, const Progress& progress)
+    : s_(std::make_unique<State>()) {
+  if (surface.size() < 4) throw InputError("mesh generation: fewer than 4 surface samples");
+  State& s = *s_;
+  s.occupancy = occupancy;
+  s.options = options;
+  s.progress = progress;
+  s.surface = surface;
+  s.interior = interior;
+  for (std::size_t i = 0; i < interior.size(); ++i) s.interior[i] += jitter(int(i), options);
+
+  progress("poles", 0.0);
+  std::vector<std::pair<Point, int>> pts;
+  pts.reserve(surface.size());
+  for (std::size_t i = 0; i < surface.size(); ++i) pts.push_back({to_point(surface[i]), int(i)});
+  s.samples_dt = triangulate(pts, progress);
+  s.frame = pole_frame(surface);
+  s.poles.resize(surface.size());
+  for (auto v = s.samples_dt.finite_vertices_begin(); v != s.samples_dt.finite_vertices_end(); ++v)
+    s.poles[v->info()] = s.poles_at(v);
 
   progress("Delaunay", 0.3);
   const int nb = int(surface.size()), ni = int(interior.size());
-  std::vector<Vec3> nudged(interior);
-  for (int i = 0; i < ni; ++i) nudged[i] += jitter(i, options);
-  std::vector<std::pair<Point, int>> pts;
-  pts.reserve(surface.size() + interior.size() + out.exterior_poles.size());
-  for (int i = 0; i < nb; ++i) pts.push_back({to_point(surface[i]), i});
-  for (int i = 0; i < ni; ++i) pts.push_back({to_point(nudged[i]), nb + i});
-  for (std::size_t i = 0; i < out.exterior_poles.size(); ++i)
-    pts.push_back({to_point(out.exterior_poles[i]), -1});  // −1 marks a pole
-  Delaunay dt = triangulate(pts, progress);
+  std::vector<State::Pole*> exterior;
+  for (auto& sample : s.poles)
+    for (State::Pole& pole : sample)
+      if (pole.kind == State::PoleKind::exterior) exterior.push_back(&pole);
+  pts.clear();
+  pts.reserve(surface.size() + interior.size() + exterior.size());
+  for (int i = 0; i < nb; ++i) pts.push_back({to_point(s.surface[i]), i});
+  for (int i = 0; i < ni; ++i) pts.push_back({to_point(s.interior[i]), nb + i});
+  for (const State::Pole* pole : exterior) pts.push_back({to_point(pole->at), -1});  // −1: pole
+  std::vector<Delaunay::Vertex_handle> handles;
+  s.dt = triangulate(pts, progress, &handles);
   progress.check_cancelled();
+  s.handle.assign(std::size_t(nb + ni), Delaunay::Vertex_handle());
+  for (int i = 0; i < nb + ni; ++i)
+    if (handles[i]->info() == i) s.handle[i] = handles[i];  // else a duplicate of an earlier one
+  for (std::size_t k = 0; k < exterior.size(); ++k) {
+    const Delaunay::Vertex_handle v = handles[std::size_t(nb + ni) + k];
+    if (v->info() >= 0) continue;
+    exterior[k]->vertex = v;
+    ++s.pole_uses[&*v];
+  }
+}
 
-  std::vector<Delaunay::Vertex_handle> handle(std::size_t(nb + ni));
-  for (auto v = dt.finite_vertices_begin(); v != dt.finite_vertices_end(); ++v)
-    if (v->info() >= 0) handle[v->info()] = v;
+DelaunayMesher::~DelaunayMesher() = default;
+
+void DelaunayMesher::refine(const std::vector<Vec3>& new_surface,
+                            const std::vector<int>& dropped_interior,
+                            const std::vector<Vec3>& outside_points) {
+  State& s = *s_;
+  s.progress("poles", 0.0);
+  const int nb = int(s.surface.size()), ni = int(s.interior.size()), na = int(new_surface.size());
+  // 1. Delaunay(B) gains the new samples. Only samples whose Voronoi cell changed (the new
+  // ones and their neighbours) can have new poles.
+  std::vector<int> affected;
+  for (int k = 0; k < na; ++k) {
+    const std::size_t before = s.samples_dt.number_of_vertices();
+    const Delaunay::Vertex_handle v = s.samples_dt.insert(to_point(new_surface[k]));
+    if (s.samples_dt.number_of_vertices() == before) continue;  // a duplicate: no new cell
+    v->info() = nb + k;
+  }
+  s.surface.insert(s.surface.end(), new_surface.begin(), new_surface.end());
+  s.poles.resize(std::size_t(nb + na));
+  std::vector<Delaunay::Vertex_handle> changed;
+  for (auto v = s.samples_dt.finite_vertices_begin(); v != s.samples_dt.finite_vertices_end(); ++v)
+    if (v->info() >= nb) {
+      changed.push_back(v);
+      s.samples_dt.finite_adjacent_vertices(v, std::back_inserter(changed));
+    }
+  std::sort(changed.begin(), changed.end(),
+            [](auto a, auto b) { return a->info() < b->info(); });
+  changed.erase(std::unique(changed.begin(), changed.end()), changed.end());
+
+  // 2. Their exterior poles in dt are replaced: new ones in first, so a pole that stays (a
+  // Voronoi vertex the change did not touch) is never removed and inserted again.
+  std::vector<std::vector<State::Pole>> old(changed.size());
+  for (std::size_t n = 0; n < changed.size(); ++n) {
+    std::vector<State::Pole>& poles = s.poles[changed[n]->info()];
+    old[n] = std::move(poles);
+    poles = s.poles_at(changed[n]);
+    for (State::Pole& pole : poles)
+      if (pole.kind == State::PoleKind::exterior) s.insert_pole(pole);
+  }
+  for (const auto& poles : old)
+    for (const State::Pole& pole : poles)
+      if (pole.vertex != Delaunay::Vertex_handle() && --s.pole_uses[&*pole.vertex] == 0) {
+        s.pole_uses.erase(&*pole.vertex);
+        s.dt.remove(pole.vertex);
+      }
+  s.progress.check_cancelled();
+
+  // 3. dt: B grows by the new samples, I loses the dropped ones; indices follow. Samples
+  // rule 3 deleted come back, as the new samples may have resolved their pinch.
+  s.progress("Delaunay", 0.3);
+  std::vector<char> drop(std::size_t(ni), 0);
+  for (int d : dropped_interior) drop.at(std::size_t(d)) = 1;
+  for (int v : s.pinched) {
+    if (v >= nb && drop[v - nb]) continue;
+    const std::size_t before = s.dt.number_of_vertices();
+    const Delaunay::Vertex_handle h = s.dt.insert(to_point(v < nb ? s.surface[v] : s.interior[v - nb]));
+    if (s.dt.number_of_vertices() > before) s.handle[v] = h;
+  }
+  s.pinched.clear();
+  std::vector<Delaunay::Vertex_handle> handle(s.handle.begin(), s.handle.begin() + nb);
+  std::vector<Vec3> interior;
+  for (int i = 0; i < ni; ++i) {
+    const Delaunay::Vertex_handle v = s.handle[std::size_t(nb + i)];
+    if (drop[i]) {
+      if (v != Delaunay::Vertex_handle()) s.dt.remove(v);
+      continue;
+    }
+    interior.push_back(s.interior[i]);
+    handle.resize(std::size_t(nb + na) + interior.size());
+    handle.back() = v;
+  }
+  for (int k = 0; k < na; ++k) {
+    const std::size_t before = s.dt.number_of_vertices();
+    const Delaunay::Vertex_handle v = s.dt.insert(to_point(new_surface[k]));
+    if (s.dt.number_of_vertices() > before) handle[std::size_t(nb + k)] = v;
+  }
+  for (std::size_t i = 0; i < handle.size(); ++i)
+    if (handle[i] != Delaunay::Vertex_handle()) handle[i]->info() = int(i);
+  s.handle = std::move(handle);
+  s.interior = std::move(interior);
+  s.options.outside_points.insert(s.options.outside_points.end(), outside_points.begin(),
+                                  outside_points.end());
+}
+
+MeshGenerationResult DelaunayMesher::mesh() {
+  State& s = *s_;
+  const MeshGenerationOptions& options = s.options;
+  const Progress& progress = s.progress;
+  Delaunay& dt = s.dt;
+  const int nb = int(s.surface.size()), ni = int(s.interior.size());
+  MeshGenerationResult out;
+  for (const auto& sample : s.poles)
+    for (const State::Pole& pole : sample) {
+      if (pole.kind == State::PoleKind::exterior) out.exterior_poles.push_back(pole.at);
+      if (pole.kind == State::PoleKind::interior) out.interior_poles.push_back(pole.at);
+      if (pole.kind == State::PoleKind::near_surface) ++out.near_surface_poles;
+    }
 
   // Rules 1 and 2 select the tets; where the result pinches (the boundary is not a disc around
   // a sample), that sample is deleted from the triangulation and the selection redone.
@@ -275,7 +467,7 @@ MeshGenerationResult build_delaunay_mesh(const std::vector<Vec3>& surface,
         for (int k = 0; k < 4; ++k)
           if (c->vertex(k)->info() < 0) info.test = CellTest::pole;
         if (info.test == CellTest::inside && options.remove_outside_tets &&
-            centroid_outside(c, occupancy, options))
+            centroid_outside(c, s.occupancy, options))
           info.test = CellTest::outside;
       }
       info.fate = info.test == CellTest::pole      ? pole_cell
@@ -299,13 +491,13 @@ MeshGenerationResult build_delaunay_mesh(const std::vector<Vec3>& surface,
         pinched_vertices(std::size_t(nb + ni), kept_boundary(dt));
     if (pinched.empty()) break;
     for (std::int32_t v : pinched) {
-      dt.remove(handle[v]);
-      out.pinched_samples.push_back(v < nb ? surface[v] : nudged[v - nb]);
+      dt.remove(s.handle[v]);
+      s.handle[v] = Delaunay::Vertex_handle();
+      s.pinched.push_back(v);
+      out.pinched_samples.push_back(v < nb ? s.surface[v] : s.interior[v - nb]);
     }
   }
   std::vector<Tet> kept;  // indices into B ∪ I
-  out.removed_outside.clear();
-  out.removed_by_centroid = 0;
   for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
     if (c->info().fate == pole_cell) continue;
     std::array<Vec3, 4> corners;
@@ -327,8 +519,8 @@ MeshGenerationResult build_delaunay_mesh(const std::vector<Vec3>& surface,
   std::sort(kept.begin(), kept.end());
 
   progress("manifold repair", 0.9);
-  std::vector<Vec3> points(surface);
-  points.insert(points.end(), nudged.begin(), nudged.end());
+  std::vector<Vec3> points(s.surface);
+  points.insert(points.end(), s.interior.begin(), s.interior.end());
   if (options.repair_manifold)
     out.repair = repair_boundary_manifold(points, kept, &out.removed_by_repair);
   out.removed_small_components =
@@ -353,6 +545,14 @@ MeshGenerationResult build_delaunay_mesh(const std::vector<Vec3>& surface,
   std::sort(out.mesh.tets.begin(), out.mesh.tets.end());
   progress("mesh", 1.0);
   return out;
+}
+
+MeshGenerationResult build_delaunay_mesh(const std::vector<Vec3>& surface,
+                                         const std::vector<Vec3>& interior,
+                                         const OccupancyFunction& occupancy,
+                                         const MeshGenerationOptions& options,
+                                         const Progress& progress) {
+  return DelaunayMesher(surface, interior, occupancy, options, progress).mesh();
 }
 
 }  // namespace cvt

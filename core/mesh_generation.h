@@ -10,6 +10,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <functional>
+#include <memory>
 #include <vector>
 
 #include "manifold_repair.h"
@@ -79,6 +80,33 @@ struct MeshGenerationResult {
   std::vector<Vec3> added_surface_samples;     // by fidelity refinement (world, mm)
   std::vector<Vec3> dropped_interior_samples;  // by fidelity refinement (world, mm)
   std::vector<FidelityRefinementRound> refinement;  // one per check made
+};
+
+// Stage 5 kept open for refinement: samples can be added to B and dropped from I, and the
+// triangulations change only where they must (poles of the samples around the new ones,
+// their cells), instead of being built again.
+class DelaunayMesher {
+ public:
+  DelaunayMesher(const std::vector<Vec3>& surface_samples, const std::vector<Vec3>& interior_samples,
+                 const OccupancyFunction& occupancy, const MeshGenerationOptions& options = {},
+                 const Progress& progress = {});
+  ~DelaunayMesher();
+  DelaunayMesher(const DelaunayMesher&) = delete;
+  DelaunayMesher& operator=(const DelaunayMesher&) = delete;
+
+  // Rules 1–4 on the current triangulation. Samples rule 3 deletes stay deleted until the
+  // next refine(), which puts them back.
+  MeshGenerationResult mesh();
+
+  // Appends samples to B, drops samples of I (indices into the current I; the others keep
+  // their order), and adds points for rule 2's outside_points. Vertex indices of later meshes
+  // are into the new B then I.
+  void refine(const std::vector<Vec3>& new_surface_samples, const std::vector<int>& dropped_interior,
+              const std::vector<Vec3>& outside_points);
+
+ private:
+  struct State;
+  std::unique_ptr<State> s_;
 };
 
 MeshGenerationResult build_delaunay_mesh(const std::vector<Vec3>& surface_samples,

@@ -2,7 +2,10 @@
 // object's topology, close to the analytic volume, and the same mesh every time.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+
+#include "mesh_generation.h"
 
 #include "phantoms.h"
 #include "pipeline.h"
@@ -85,4 +88,59 @@ TEST(MeshGeneration, SameInputSameMesh) {
     ASSERT_TRUE(a.mesh.vertices[i] == b.mesh.vertices[i]) << i;
   expect_valid(a.quality);
   EXPECT_EQ(a.quality.validity.boundary.components, 2u);  // two spheres 1.5 mm apart
+}
+
+namespace {
+
+// n points spread over the sphere |p| = R (a Fibonacci spiral, turned by `phase`).
+std::vector<Vec3> sphere_points(int n, double R, double phase) {
+  std::vector<Vec3> out;
+  for (int k = 0; k < n; ++k) {
+    const double z = 1 - (2 * k + 1.0) / n, rho = std::sqrt(1 - z * z);
+    const double a = k * kPi * (3 - std::sqrt(5.0)) + phase;
+    out.push_back(Vec3{rho * std::cos(a), rho * std::sin(a), z} * R);
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST(DelaunayMesher, RefiningGivesTheMeshOfTheRefinedSamples) {
+  const double R = 10;
+  std::vector<Vec3> surface = sphere_points(500, R, 0), interior;
+  for (double x = -8; x <= 8; x += 1.7)
+    for (double y = -8; y <= 8; y += 1.7)
+      for (double z = -8; z <= 8; z += 1.7)
+        if (norm(Vec3{x, y, z}) < R - 1.5) interior.push_back({x, y, z});
+  const OccupancyFunction occupancy = [&](const Vec3& p) {
+    return std::clamp(0.5 - (norm(p) - R) / 2, 0.0, 1.0);
+  };
+  MeshGenerationOptions options;
+  options.interior_jitter_mm = 0;  // the same positions whichever way the samples are indexed
+  DelaunayMesher mesher(surface, interior, occupancy, options);
+  const MeshGenerationResult first = mesher.mesh();
+  expect_valid(compute_quality(first.mesh));
+
+  // 60 more surface samples; interior samples with x > 4 and the first three are dropped.
+  const std::vector<Vec3> added = sphere_points(60, R, 0.7);
+  std::vector<int> dropped;
+  std::vector<Vec3> kept;
+  for (std::size_t i = 0; i < interior.size(); ++i)
+    if (i < 3 || interior[i].x > 4)
+      dropped.push_back(int(i));
+    else
+      kept.push_back(interior[i]);
+  ASSERT_GT(dropped.size(), 20u);
+  mesher.refine(added, dropped, {});
+  const MeshGenerationResult refined = mesher.mesh();
+  expect_valid(compute_quality(refined.mesh));
+
+  std::vector<Vec3> all_surface = surface;
+  all_surface.insert(all_surface.end(), added.begin(), added.end());
+  const MeshGenerationResult fresh = build_delaunay_mesh(all_surface, kept, occupancy, options);
+  EXPECT_EQ(refined.mesh.vertices, fresh.mesh.vertices);
+  EXPECT_EQ(refined.mesh.tets, fresh.mesh.tets);
+  EXPECT_EQ(refined.vertex_source, fresh.vertex_source);
+  EXPECT_EQ(refined.exterior_poles.size(), fresh.exterior_poles.size());
+  EXPECT_GT(refined.mesh.vertices.size(), first.mesh.vertices.size() + 60 - dropped.size() - 5);
 }
