@@ -239,6 +239,59 @@ TEST(DistanceTransform, ReusedOutputsMatchFreshOnes) {
     }
 }
 
+TEST(DistanceTransform, DistanceOnlyMatchesFeatureTransformOnLongLines) {
+  // The distance-only path searches groups of 8 adjacent lines (divide and conquer over the
+  // monotone minimisers, cut where all 8 lines have a feature). Long lines, widths that are no
+  // multiple of 8, groups mixing lines with and without features, planes of features, sparse
+  // features (long-range ties) and strong anisotropy; the FT's distances are the reference (they
+  // are checked against brute force above), and some of these also against brute force.
+  std::vector<Mask> masks;
+  const Vec3 spacings[] = {{0.617, 0.617, 1.333}, {2.5, 0.3, 1.1}, {1e-3, 7.0, 0.1}};
+  unsigned seed = 100;
+  for (const Vec3& spacing : spacings)
+    for (double density : {0.0005, 0.01, 0.3, 0.9}) {
+      masks.push_back(random_mask({29, 83, 61}, spacing, density, seed++));
+      masks.push_back(random_mask({45, 17, 130}, spacing, density, seed++));
+    }
+  {  // an ellipsoid's complement, as in the benchmark, and a half-empty variant
+    Grid g;
+    g.dims = {45, 70, 38};
+    g.spacing = {0.617, 0.617, 1.333};
+    Mask m(g), half(g);
+    for (int k = 0; k < g.dims[2]; ++k)
+      for (int j = 0; j < g.dims[1]; ++j)
+        for (int i = 0; i < g.dims[0]; ++i) {
+          const double x = (i - 22) / 20.0, y = (j - 35) / 31.0, z = (k - 19) / 17.0;
+          m.at(i, j, k) = x * x + y * y + z * z > 1.0 ? 1 : 0;
+          // features only on lines with i ≥ 13, and there only near one end of each line
+          half.at(i, j, k) = i >= 13 && j + k < 6 ? 1 : 0;
+        }
+    masks.push_back(m);
+    masks.push_back(half);
+    Mask plane(g);  // one plane of features: every line's parabolas are all on the envelope
+    for (int j = 0; j < g.dims[1]; ++j)
+      for (int i = 0; i < g.dims[0]; ++i) plane.at(i, j, 0) = 1;
+    masks.push_back(plane);
+    Mask full(g);
+    std::fill(full.data.begin(), full.data.end(), 1);
+    masks.push_back(full);
+    masks.push_back(Mask(g));  // no feature
+  }
+  for (std::size_t c = 0; c < masks.size(); ++c) {
+    const Mask& m = masks[c];
+    SCOPED_TRACE(::testing::Message() << "mask " << c);
+    const FeatureTransform ft = cvt::compute_feature_transform(m);
+    const FeatureTransform distance_only = cvt::compute_feature_transform(m, false);
+    ASSERT_EQ(distance_only.squared_distance_mm2.size(), m.size());
+    EXPECT_EQ(std::memcmp(ft.squared_distance_mm2.data.data(),
+                          distance_only.squared_distance_mm2.data.data(), m.size() * sizeof(float)),
+              0);
+    const auto features = std::count(m.data.begin(), m.data.end(), 1);
+    if (features < 5000) expect_matches_brute_force(m, 7);  // the sparse masks, cheaply
+  }
+  expect_matches_brute_force(masks[masks.size() - 5], 61);  // the ellipsoid, sampled
+}
+
 FeatureTransform run_with_threads(const Mask& m, int threads) {
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
   return cvt::compute_feature_transform(m);
@@ -255,6 +308,12 @@ TEST(DistanceTransform, IdenticalForAnyThreadCount) {
               0)
         << threads << " threads";
     EXPECT_EQ(one.nearest.data, many.nearest.data) << threads << " threads";
+    tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+    const FeatureTransform distance_only = cvt::compute_feature_transform(m, false);
+    EXPECT_EQ(std::memcmp(one.squared_distance_mm2.data.data(),
+                          distance_only.squared_distance_mm2.data.data(), m.size() * sizeof(float)),
+              0)
+        << threads << " threads, distance only";
   }
 }
 
