@@ -8,6 +8,11 @@ namespace cvt {
 namespace {
 
 using Edge = std::pair<std::int32_t, std::int32_t>;
+
+// signed_volume of a tet over a point list (no TetMesh to copy them into).
+double volume_of(const std::vector<Vec3>& p, const Tet& t) {
+  return dot(p[t[1]] - p[t[0]], cross(p[t[2]] - p[t[0]], p[t[3]] - p[t[0]])) / 6.0;
+}
 Edge edge(std::int32_t a, std::int32_t b) { return a < b ? Edge{a, b} : Edge{b, a}; }
 
 // Vertex → incident tets (CSR), over the tets still alive.
@@ -137,6 +142,14 @@ struct BoundaryLinks {
 
 }  // namespace
 
+bool is_flat_tet(const std::vector<Vec3>& points, const Tet& t) {
+  const double v = std::abs(volume_of(points, t));
+  double longest = 0;
+  for (int i = 0; i < 4; ++i)
+    for (int j = i + 1; j < 4; ++j) longest = std::max(longest, distance(points[t[i]], points[t[j]]));
+  return v <= 1e-9 * longest * longest * longest;
+}
+
 std::vector<std::int32_t> pinched_vertices(std::size_t vertex_count,
                                            const std::vector<Triangle>& boundary) {
   const BoundaryLinks links(boundary, vertex_count);
@@ -151,8 +164,10 @@ ManifoldRepairReport repair_boundary_manifold(const std::vector<Vec3>& points,
                                               std::vector<std::array<Vec3, 4>>* removed_out) {
   ManifoldRepairReport report;
   for (;; ++report.passes) {
-    TetMesh view{points, tets, {}};
-    const std::vector<Triangle> boundary = boundary_triangles(view);
+    std::vector<Triangle> boundary;
+    const std::vector<std::int64_t> neighbour = face_neighbours(points.size(), tets);
+    for (std::size_t f = 0; f < neighbour.size(); ++f)
+      if (neighbour[f] < 0) boundary.push_back(outward_faces(tets[f / 4])[f % 4]);
     std::vector<char> remove(tets.size(), 0);
     const Star star(points.size(), tets);
 
@@ -166,12 +181,7 @@ ManifoldRepairReport repair_boundary_manifold(const std::vector<Vec3>& points,
       for (std::int32_t t : std::vector<std::int32_t>(star.tets.begin() + star.start[f[0]],
                                                       star.tets.begin() + star.start[f[0] + 1])) {
         if (remove[t] || shared_vertices(tets[t], {f[0], f[1], f[2], -1}) != 3) continue;
-        const double v = std::abs(signed_volume(view, tets[t]));
-        double longest = 0;
-        for (int a = 0; a < 4; ++a)
-          for (int b = a + 1; b < 4; ++b)
-            longest = std::max(longest, distance(points[tets[t][a]], points[tets[t][b]]));
-        if (v <= 1e-9 * longest * longest * longest) {
+        if (is_flat_tet(points, tets[t])) {
           remove[t] = 1;
           ++report.flat_removed;
           ++changed;
@@ -247,16 +257,26 @@ std::size_t remove_small_tet_components(const std::vector<Vec3>& points, std::ve
   for (std::size_t f = 0; f < neighbour.size(); ++f)
     if (neighbour[f] >= 0) {
       const std::int32_t a = find(std::int32_t(f / 4)), b = find(std::int32_t(neighbour[f] / 4));
-      if (a != b) parent[std::max(a, b)] = std::min(a, b);  // smallest index as root: deterministic
+      if (a != b) parent[std::max(a, b)] = std::min(a, b);
     }
-  const TetMesh view{points, {}, {}};
-  std::vector<double> volume(tets.size(), 0.0);
-  for (std::size_t t = 0; t < tets.size(); ++t) volume[find(std::int32_t(t))] += signed_volume(view, tets[t]);
+  std::vector<std::int32_t> component(tets.size());
+  for (std::size_t t = 0; t < tets.size(); ++t) component[t] = find(std::int32_t(t));
+  return remove_small_tet_components(points, tets, component, fraction, removed_out);
+}
+
+std::size_t remove_small_tet_components(const std::vector<Vec3>& points, std::vector<Tet>& tets,
+                                        const std::vector<std::int32_t>& component,
+                                        double fraction,
+                                        std::vector<std::array<Vec3, 4>>* removed_out) {
+  if (tets.empty()) return 0;
+  // Volumes summed in tet order, so the figures do not depend on how components are numbered.
+  std::vector<double> volume(std::size_t(*std::max_element(component.begin(), component.end())) + 1, 0.0);
+  for (std::size_t t = 0; t < tets.size(); ++t) volume[component[t]] += volume_of(points, tets[t]);
   const double largest = *std::max_element(volume.begin(), volume.end());
   std::vector<Tet> kept;
   kept.reserve(tets.size());
   for (std::size_t t = 0; t < tets.size(); ++t) {
-    if (volume[find(std::int32_t(t))] >= fraction * largest) {
+    if (volume[component[t]] >= fraction * largest) {
       kept.push_back(tets[t]);
     } else if (removed_out) {
       removed_out->push_back({points[tets[t][0]], points[tets[t][1]], points[tets[t][2]],

@@ -42,4 +42,13 @@ std::size_t remove_small_tet_components(const std::vector<Vec3>& points, std::ve
                                         double fraction,
                                         std::vector<std::array<Vec3, 4>>* removed = nullptr);
 
+// The same with the groups given: component[t] numbers tet t's group (small non-negative ids).
+std::size_t remove_small_tet_components(const std::vector<Vec3>& points, std::vector<Tet>& tets,
+                                        const std::vector<std::int32_t>& component,
+                                        double fraction,
+                                        std::vector<std::array<Vec3, 4>>* removed = nullptr);
+
+// Whether tet t is flat: |volume| at most 1e-9 × its longest edge cubed.
+bool is_flat_tet(const std::vector<Vec3>& points, const Tet& t);
+
 }  // namespace cvt

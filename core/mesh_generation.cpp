@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <tuple>
 #include <unordered_map>
 
 #include <CGAL/Delaunay_triangulation_3.h>
@@ -29,6 +30,8 @@ enum class CellTest : signed char { untested, inside, pole, outside };
 struct CellInfo {
   int fate = 0;  // a CellFate, negated while restore_enclosed marks cells
   CellTest test = CellTest::untested;
+  signed char flat = -1;        // is_flat_tet of its corners: −1 not yet known, 0 no, 1 yes
+  std::int32_t component = -1;  // kept cells: their face-connected group, when mesh() needs it
 };
 using CellBase = CGAL::Triangulation_cell_base_with_info_3<
     CellInfo, Kernel, CGAL::Delaunay_triangulation_cell_base_3<Kernel>>;
@@ -36,7 +39,7 @@ using DataStructure = CGAL::Triangulation_data_structure_3<VertexBase, CellBase>
 using Delaunay = CGAL::Delaunay_triangulation_3<Kernel, DataStructure>;
 using Point = Kernel::Point_3;
 
-enum CellFate : int { kept_cell, pole_cell, outside_cell };
+enum CellFate : int { kept_cell, pole_cell, outside_cell, flat_cell };
 
 Point to_point(const Vec3& v) { return {v.x, v.y, v.z}; }
 Vec3 to_vec(const Point& p) { return {p.x(), p.y(), p.z()}; }
@@ -161,6 +164,43 @@ std::vector<Triangle> kept_boundary(const Delaunay& dt) {
     }
   }
   return faces;
+}
+
+// Rule 3, last part: kept cells on the boundary that are flat (coplanar samples make
+// zero-volume slivers) go, and so do the flat cells that exposes, so the boundary is not
+// folded over them. Returns how many went.
+std::size_t peel_flat_boundary_cells(const Delaunay& dt, const std::vector<Vec3>& points) {
+  const auto on_boundary = [&](Delaunay::Cell_handle c) {
+    for (int k = 0; k < 4; ++k) {
+      const Delaunay::Cell_handle n = c->neighbor(k);
+      if (dt.is_infinite(n) || n->info().fate != kept_cell) return true;
+    }
+    return false;
+  };
+  const auto flat = [&](Delaunay::Cell_handle c) {
+    if (c->info().flat < 0) {
+      Tet t;
+      for (int k = 0; k < 4; ++k) t[k] = c->vertex(k)->info();
+      c->info().flat = is_flat_tet(points, canonical(t));
+    }
+    return c->info().flat == 1;
+  };
+  std::vector<Delaunay::Cell_handle> stack;
+  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c)
+    if (c->info().fate == kept_cell && on_boundary(c) && flat(c)) stack.push_back(c);
+  std::size_t peeled = 0;
+  while (!stack.empty()) {
+    const Delaunay::Cell_handle c = stack.back();
+    stack.pop_back();
+    if (c->info().fate != kept_cell) continue;
+    c->info().fate = flat_cell;
+    ++peeled;
+    for (int k = 0; k < 4; ++k) {
+      const Delaunay::Cell_handle n = c->neighbor(k);
+      if (!dt.is_infinite(n) && n->info().fate == kept_cell && flat(n)) stack.push_back(n);
+    }
+  }
+  return peeled;
 }
 
 // What the poles of hull samples need: B's centroid (behind every hull facet) and a distance
@@ -455,6 +495,9 @@ MeshGenerationResult DelaunayMesher::mesh() {
 
   // Rules 1 and 2 select the tets; where the result pinches (the boundary is not a disc around
   // a sample), that sample is deleted from the triangulation and the selection redone.
+  std::vector<Vec3> points(s.surface);
+  points.insert(points.end(), s.interior.begin(), s.interior.end());
+  bool pinch_free = false;
   for (int pass = 0;; ++pass) {
     progress(pass == 0 ? "pole removal" : "pinch removal", 0.7);
     out.delaunay_tets = out.removed_by_poles = 0;
@@ -484,12 +527,22 @@ MeshGenerationResult DelaunayMesher::mesh() {
         outside.push_back(c);
       }
     restore_enclosed(dt, outside);
+    out.repair.flat_removed = 0;
     if (!options.repair_manifold || pass >= options.max_pinch_passes) break;
     // The boundary straight from the cells' adjacency (no tet list to sort each pass); the
     // pinched samples come out in index order, so their removal order is deterministic.
-    const std::vector<std::int32_t> pinched =
-        pinched_vertices(std::size_t(nb + ni), kept_boundary(dt));
-    if (pinched.empty()) break;
+    std::vector<std::int32_t> pinched = pinched_vertices(std::size_t(nb + ni), kept_boundary(dt));
+    if (pinched.empty()) {
+      // Flat cells are peeled from the boundary once it no longer pinches; if that makes a
+      // pinch, its samples go too and the passes go on.
+      out.repair.flat_removed = peel_flat_boundary_cells(dt, points);
+      if (out.repair.flat_removed > 0)
+        pinched = pinched_vertices(std::size_t(nb + ni), kept_boundary(dt));
+    }
+    if (pinched.empty()) {
+      pinch_free = true;
+      break;
+    }
     for (std::int32_t v : pinched) {
       dt.remove(s.handle[v]);
       s.handle[v] = Delaunay::Vertex_handle();
@@ -497,7 +550,41 @@ MeshGenerationResult DelaunayMesher::mesh() {
       out.pinched_samples.push_back(v < nb ? s.surface[v] : s.interior[v - nb]);
     }
   }
-  std::vector<Tet> kept;  // indices into B ∪ I
+  // Without pinches every boundary link is one cycle, so every boundary edge has two faces:
+  // peeling (rule 3's fallback) could only remove flat tets on the boundary, and those went
+  // above. Unless one is left, it is skipped, and rule 4's groups come from the cells'
+  // adjacency, not a face sort.
+  bool peel = options.repair_manifold && !pinch_free;
+  std::int32_t groups = 0;
+  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
+    if (c->info().fate != kept_cell) continue;
+    c->info().component = -1;
+  }
+  std::vector<Delaunay::Cell_handle> queue;
+  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end() && !peel; ++c) {
+    if (c->info().fate != kept_cell || c->info().component >= 0) continue;
+    c->info().component = groups;
+    queue.assign(1, c);
+    while (!queue.empty() && !peel) {
+      const Delaunay::Cell_handle q = queue.back();
+      queue.pop_back();
+      for (int k = 0; k < 4; ++k) {
+        const Delaunay::Cell_handle n = q->neighbor(k);
+        if (!dt.is_infinite(n) && n->info().fate == kept_cell) {
+          if (n->info().component < 0) {
+            n->info().component = groups;
+            queue.push_back(n);
+          }
+        } else if (options.repair_manifold) {  // q has a boundary face
+          Tet t;
+          for (int v = 0; v < 4; ++v) t[v] = q->vertex(v)->info();
+          peel = is_flat_tet(points, canonical(t));
+        }
+      }
+    }
+    ++groups;
+  }
+  std::vector<std::pair<Tet, std::int32_t>> kept;  // indices into B ∪ I, and the group
   for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
     if (c->info().fate == pole_cell) continue;
     std::array<Vec3, 4> corners;
@@ -509,26 +596,36 @@ MeshGenerationResult DelaunayMesher::mesh() {
     if (c->info().fate == outside_cell) {
       ++out.removed_by_centroid;
       out.removed_outside.push_back(corners);
+    } else if (c->info().fate == flat_cell) {
+      out.removed_by_repair.push_back(corners);
     } else {
-      kept.push_back(t);
+      kept.push_back({canonical(t), c->info().component});
     }
   }
   // CGAL's vertex removal orders its work by handle address, which varies from run to run;
   // a canonical order keeps the repair step (order-dependent) deterministic.
-  for (Tet& t : kept) t = canonical(t);
   std::sort(kept.begin(), kept.end());
+  std::vector<Tet> tets(kept.size());
+  std::vector<std::int32_t> group(kept.size());
+  for (std::size_t t = 0; t < kept.size(); ++t) std::tie(tets[t], group[t]) = kept[t];
+  kept = {};
 
   progress("manifold repair", 0.9);
-  std::vector<Vec3> points(s.surface);
-  points.insert(points.end(), s.interior.begin(), s.interior.end());
-  if (options.repair_manifold)
-    out.repair = repair_boundary_manifold(points, kept, &out.removed_by_repair);
-  out.removed_small_components =
-      remove_small_tet_components(points, kept, options.min_component_fraction, &out.removed_by_repair);
+  if (peel) {
+    const std::size_t flat = out.repair.flat_removed;
+    out.repair = repair_boundary_manifold(points, tets, &out.removed_by_repair);
+    out.repair.flat_removed += flat;
+    out.removed_small_components = remove_small_tet_components(
+        points, tets, options.min_component_fraction, &out.removed_by_repair);
+  } else {
+    out.repair.manifold = options.repair_manifold;  // what a peeling pass would have found
+    out.removed_small_components = remove_small_tet_components(
+        points, tets, group, options.min_component_fraction, &out.removed_by_repair);
+  }
 
   // Keep only referenced samples, in input order (B first, then I), for a deterministic mesh.
   std::vector<int> new_index(std::size_t(nb + ni), -1);
-  for (const Tet& t : kept)
+  for (const Tet& t : tets)
     for (int v : t) new_index[v] = 0;
   for (int v = 0; v < nb + ni; ++v) {
     if (new_index[v] < 0) {
@@ -539,8 +636,8 @@ MeshGenerationResult DelaunayMesher::mesh() {
     out.mesh.vertices.push_back(points[v]);
     out.vertex_source.push_back(v);
   }
-  out.mesh.tets.reserve(kept.size());
-  for (const Tet& t : kept)
+  out.mesh.tets.reserve(tets.size());
+  for (const Tet& t : tets)
     out.mesh.tets.push_back(canonical({new_index[t[0]], new_index[t[1]], new_index[t[2]], new_index[t[3]]}));
   std::sort(out.mesh.tets.begin(), out.mesh.tets.end());
   progress("mesh", 1.0);

@@ -65,6 +65,7 @@ nlohmann::json run_report(const Pipeline& pipe) {
     counts["removed_by_repair"] = m->removed_by_repair.size();
     counts["removed_small_components"] = m->removed_small_components;
     counts["repair_passes"] = m->repair.passes;
+    counts["flat_removed"] = m->repair.flat_removed;
     counts["refinement_added_samples"] = m->added_surface_samples.size();
     counts["refinement_dropped_interior"] = m->dropped_interior_samples.size();
     json rounds = json::array();

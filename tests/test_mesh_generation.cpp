@@ -144,3 +144,28 @@ TEST(DelaunayMesher, RefiningGivesTheMeshOfTheRefinedSamples) {
   EXPECT_EQ(refined.exterior_poles.size(), fresh.exterior_poles.size());
   EXPECT_GT(refined.mesh.vertices.size(), first.mesh.vertices.size() + 60 - dropped.size() - 5);
 }
+
+TEST(DelaunayMesher, ABoxSampledOnAGridIsExactlyTheBox) {
+  // Four samples of a face square are coplanar and cocircular, and the interior grid is
+  // cospherical throughout: Delaunay has flat cells, none of which may stay in the mesh.
+  const double h = 1.0;
+  const int n = 8;  // the box is [0, 8]³
+  std::vector<Vec3> surface, interior;
+  for (int i = 0; i <= n; ++i)
+    for (int j = 0; j <= n; ++j)
+      for (int k = 0; k <= n; ++k) {
+        const bool face = i == 0 || j == 0 || k == 0 || i == n || j == n || k == n;
+        if (face) surface.push_back(Vec3{double(i), double(j), double(k)} * h);
+        else if (i % 2 == 0 && j % 2 == 0 && k % 2 == 0) interior.push_back(Vec3{double(i), double(j), double(k)} * h);
+      }
+  const OccupancyFunction occupancy = [&](const Vec3& p) {
+    const double out = std::max({-p.x, -p.y, -p.z, p.x - n * h, p.y - n * h, p.z - n * h});
+    return std::clamp(0.5 - out, 0.0, 1.0);
+  };
+  const MeshGenerationResult r = build_delaunay_mesh(surface, interior, occupancy);
+  const QualityReport q = compute_quality(r.mesh);
+  expect_valid(q);
+  EXPECT_EQ(q.validity.boundary.euler_characteristic, 2);
+  EXPECT_TRUE(r.repair.manifold);
+  EXPECT_NEAR(q.volume_mm3, n * n * n * h * h * h, 1e-6);
+}
