@@ -6,6 +6,8 @@
 #include <tuple>
 #include <unordered_map>
 
+#include <tbb/task_group.h>
+
 #include <CGAL/Delaunay_triangulation_3.h>
 #include <CGAL/Delaunay_triangulation_cell_base_3.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
@@ -44,10 +46,10 @@ enum CellFate : int { kept_cell, pole_cell, outside_cell, flat_cell };
 Point to_point(const Vec3& v) { return {v.x, v.y, v.z}; }
 Vec3 to_vec(const Point& p) { return {p.x(), p.y(), p.z()}; }
 
-// handles (when given) receives each input point's vertex; a point equal to an earlier one
-// shares its vertex, which keeps the earlier point's info.
-Delaunay triangulate(const std::vector<std::pair<Point, int>>& points, const Progress& progress,
-                     std::vector<Delaunay::Vertex_handle>* handles = nullptr) {
+// Inserts the points (info attached) into dt; handles (when given) receives each point's
+// vertex; a point equal to an earlier one shares its vertex, which keeps the earlier info.
+void insert_points(Delaunay& dt, const std::vector<std::pair<Point, int>>& points,
+                   const Progress& progress, std::vector<Delaunay::Vertex_handle>* handles = nullptr) {
   // CGAL's range insertion, step for step (spatial sort, then each point from the previous
   // one's vertex), so the triangulation is the same; but it takes ~0.3 s on the liver, so a
   // cancel is checked every few thousand points. With distinct inputs the result is unique up
@@ -60,7 +62,6 @@ Delaunay triangulate(const std::vector<std::pair<Point, int>>& points, const Pro
   using SortTraits =
       CGAL::Spatial_sort_traits_adapter_3<Kernel, CGAL::Pointer_property_map<Point>::type>;
   CGAL::spatial_sort(order.begin(), order.end(), SortTraits(CGAL::make_property_map(p), Kernel()));
-  Delaunay dt;
   if (handles) handles->assign(points.size(), Delaunay::Vertex_handle());
   Delaunay::Vertex_handle hint;
   for (std::size_t n = 0; n < order.size(); ++n) {
@@ -70,6 +71,12 @@ Delaunay triangulate(const std::vector<std::pair<Point, int>>& points, const Pro
     if (dt.number_of_vertices() > before) hint->info() = points[order[n]].second;
     if (handles) (*handles)[order[n]] = hint;
   }
+}
+
+Delaunay triangulate(const std::vector<std::pair<Point, int>>& points, const Progress& progress,
+                     std::vector<Delaunay::Vertex_handle>* handles = nullptr) {
+  Delaunay dt;
+  insert_points(dt, points, progress, handles);
   return dt;
 }
 
@@ -360,35 +367,51 @@ DelaunayMesher::DelaunayMesher(const std::vector<Vec3>& surface,
   s.interior = interior;
   for (std::size_t i = 0; i < interior.size(); ++i) s.interior[i] += jitter(int(i), options);
 
+  // Delaunay(B ∪ I) is built on one core while the poles are found on the other; the
+  // exterior poles join it afterwards (the triangulation does not depend on the order).
   progress("poles", 0.0);
-  std::vector<std::pair<Point, int>> pts;
-  pts.reserve(surface.size());
-  for (std::size_t i = 0; i < surface.size(); ++i) pts.push_back({to_point(surface[i]), int(i)});
-  s.samples_dt = triangulate(pts, progress);
-  s.frame = pole_frame(surface);
-  s.poles.resize(surface.size());
-  for (auto v = s.samples_dt.finite_vertices_begin(); v != s.samples_dt.finite_vertices_end(); ++v)
-    s.poles[v->info()] = s.poles_at(v);
-
-  progress("Delaunay", 0.3);
   const int nb = int(surface.size()), ni = int(interior.size());
-  std::vector<State::Pole*> exterior;
-  for (auto& sample : s.poles)
-    for (State::Pole& pole : sample)
-      if (pole.kind == State::PoleKind::exterior) exterior.push_back(&pole);
-  pts.clear();
-  pts.reserve(surface.size() + interior.size() + exterior.size());
-  for (int i = 0; i < nb; ++i) pts.push_back({to_point(s.surface[i]), i});
-  for (int i = 0; i < ni; ++i) pts.push_back({to_point(s.interior[i]), nb + i});
-  for (const State::Pole* pole : exterior) pts.push_back({to_point(pole->at), -1});  // −1: pole
+  std::vector<std::pair<Point, int>> samples;
+  samples.reserve(surface.size() + interior.size());
+  for (int i = 0; i < nb; ++i) samples.push_back({to_point(s.surface[i]), i});
+  for (int i = 0; i < ni; ++i) samples.push_back({to_point(s.interior[i]), nb + i});
   std::vector<Delaunay::Vertex_handle> handles;
-  s.dt = triangulate(pts, progress, &handles);
-  progress.check_cancelled();
+  const Progress cancel_only{{}, progress.cancel};  // reports come from this thread only
+  tbb::task_group delaunay;
+  delaunay.run([&] { insert_points(s.dt, samples, cancel_only, &handles); });
+  try {
+    std::vector<std::pair<Point, int>> pts(samples.begin(), samples.begin() + nb);
+    s.samples_dt = triangulate(pts, progress);
+    s.frame = pole_frame(surface);
+    s.poles.resize(surface.size());
+    for (auto v = s.samples_dt.finite_vertices_begin(); v != s.samples_dt.finite_vertices_end(); ++v)
+      s.poles[v->info()] = s.poles_at(v);
+    progress("Delaunay", 0.3);
+  } catch (...) {
+    delaunay.cancel();
+    try {
+      delaunay.wait();
+    } catch (...) {
+    }
+    throw;
+  }
+  delaunay.wait();
+
   s.handle.assign(std::size_t(nb + ni), Delaunay::Vertex_handle());
   for (int i = 0; i < nb + ni; ++i)
     if (handles[i]->info() == i) s.handle[i] = handles[i];  // else a duplicate of an earlier one
+  std::vector<State::Pole*> exterior;
+  std::vector<std::pair<Point, int>> pts;
+  for (auto& sample : s.poles)
+    for (State::Pole& pole : sample)
+      if (pole.kind == State::PoleKind::exterior) {
+        exterior.push_back(&pole);
+        pts.push_back({to_point(pole.at), -1});  // −1 marks a pole
+      }
+  insert_points(s.dt, pts, progress, &handles);
+  progress.check_cancelled();
   for (std::size_t k = 0; k < exterior.size(); ++k) {
-    const Delaunay::Vertex_handle v = handles[std::size_t(nb + ni) + k];
+    const Delaunay::Vertex_handle v = handles[k];
     if (v->info() >= 0) continue;
     exterior[k]->vertex = v;
     ++s.pole_uses[&*v];
@@ -405,7 +428,6 @@ void DelaunayMesher::refine(const std::vector<Vec3>& new_surface,
   const int nb = int(s.surface.size()), ni = int(s.interior.size()), na = int(new_surface.size());
   // 1. Delaunay(B) gains the new samples. Only samples whose Voronoi cell changed (the new
   // ones and their neighbours) can have new poles.
-  std::vector<int> affected;
   for (int k = 0; k < na; ++k) {
     const std::size_t before = s.samples_dt.number_of_vertices();
     const Delaunay::Vertex_handle v = s.samples_dt.insert(to_point(new_surface[k]));
