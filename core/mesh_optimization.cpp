@@ -235,15 +235,14 @@ PassStats MeshOptimizer::statistics(int pass, bool full) const {
           if (opt::is_dead(tet)) continue;
           const Vec3 &p0 = m.pos[tet[0]], &p1 = m.pos[tet[1]], &p2 = m.pos[tet[2]],
                      &p3 = m.pos[tet[3]];
-          const auto angles = dihedral_angles_deg(p0, p1, p2, p3);
-          const double lo = *std::min_element(angles.begin(), angles.end());
-          const double hi = *std::max_element(angles.begin(), angles.end());
+          const TetFigures f = tet_figures(p0, p1, p2, p3);
+          const double lo = f.min_dihedral, hi = f.max_dihedral;
           a.min_d = std::min(a.min_d, lo);
           a.max_d = std::max(a.max_d, hi);
           const double limits[4] = {5, 10, 15, 20};
           for (int i = 0; i < 4; ++i) a.below[i] += lo < limits[i];
           for (int k = 0; k < 3; ++k) {
-            const double q = tet_measure(p0, p1, p2, p3, kShewchukMeasures[k]);
+            const double q = measure_of(f, kShewchukMeasures[k]);
             ++a.bins[k][q < edges[k][0] ? 0 : (q > edges[k][1] ? 2 : 1)];
           }
         }

@@ -51,18 +51,13 @@ Ball tet_ball(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
   return {a + off, squared_norm(off)};
 }
 
-// Every per-tet figure at once.
-struct TetFigures {
-  double shewchuk[3];
-  std::array<double, 6> dihedral;
-  double min_dihedral, max_dihedral, radius_edge;
-};
-
 // x^{3/4} without pow.
 double pow34(double x) {
   const double r = std::sqrt(x);
   return r * std::sqrt(r);
 }
+
+}  // namespace
 
 TetFigures tet_figures(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
   const Vec3 p[4] = {a, b, c, d};
@@ -99,6 +94,8 @@ TetFigures tet_figures(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& 
   return f;
 }
 
+namespace {
+
 const Vec3& vtx(const TetMesh& mesh, std::int32_t v) {
   if (v < 0 || std::size_t(v) >= mesh.vertices.size())
     throw InputError("mesh: a tet references vertex " + std::to_string(v) + " but there are " +
@@ -106,7 +103,9 @@ const Vec3& vtx(const TetMesh& mesh, std::int32_t v) {
   return mesh.vertices[std::size_t(v)];
 }
 
-double pick(const TetFigures& f, Measure m) {
+}  // namespace
+
+double measure_of(const TetFigures& f, Measure m) {
   switch (m) {
     case Measure::VOverRmc3:
       return f.shewchuk[0];
@@ -123,6 +122,8 @@ double pick(const TetFigures& f, Measure m) {
   }
   return 0;
 }
+
+namespace {
 
 // Min/mean/max, Table I bins (when `edges` is given) and a histogram over [lo, hi].
 MeasureStats summarise(const std::vector<double>& values, const std::array<double, 2>* edges,
@@ -245,7 +246,7 @@ std::array<double, 6> dihedral_angles_deg(const Vec3& a, const Vec3& b, const Ve
 }
 
 double tet_measure(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, Measure m) {
-  return pick(tet_figures(a, b, c, d), m);
+  return measure_of(tet_figures(a, b, c, d), m);
 }
 
 std::vector<double> tet_measure(const TetMesh& mesh, Measure m) {
@@ -253,7 +254,7 @@ std::vector<double> tet_measure(const TetMesh& mesh, Measure m) {
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, out.size(), 4096), [&](const auto& r) {
     for (std::size_t t = r.begin(); t != r.end(); ++t) {
       const Tet& tet = mesh.tets[t];
-      out[t] = pick(
+      out[t] = measure_of(
           tet_figures(vtx(mesh, tet[0]), vtx(mesh, tet[1]), vtx(mesh, tet[2]), vtx(mesh, tet[3])),
           m);
     }

@@ -42,6 +42,15 @@ std::array<double, 6> dihedral_angles_deg(const Vec3& a, const Vec3& b, const Ve
                                           const Vec3& d);
 double tet_measure(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, Measure m);
 
+// Every per-tet figure at once (what tet_measure and dihedral_angles_deg each compute in full).
+struct TetFigures {
+  double shewchuk[3];  // V/r_mc³, gradient error, condition number (not normalised)
+  std::array<double, 6> dihedral;
+  double min_dihedral, max_dihedral, radius_edge;
+};
+TetFigures tet_figures(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
+double measure_of(const TetFigures& f, Measure m);
+
 // One value per tet of `mesh` (parallel); for a GUI colour map or .vtu cell data.
 std::vector<double> tet_measure(const TetMesh& mesh, Measure m);
 
