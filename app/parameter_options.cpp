@@ -75,7 +75,7 @@ ParameterOptions::ParameterOptions(CLI::App* cmd, Scope scope) {
   bind(cmd->add_option("--fidelity-tolerance", given_.fidelity_tolerance_mm,
                        "Disagreement (mm) that triggers a re-triangulation; 0 = auto"),
        &Parameters::fidelity_tolerance_mm);
-  bind(cmd->add_option("--optimize", given_.optimize, "Mesh optimisation: none | default")
+  bind(cmd->add_option("--optimize", given_.optimize, "Mesh optimisation (stage 6): default | none (the paper's stage-5 mesh)")
            ->check(CLI::IsMember({"none", "default"})),
        &Parameters::optimize);
   // Stage 6: --opt-KEY for every option of the table (the preset's "optimization" keys).

@@ -40,7 +40,7 @@ struct Parameters {
   double fidelity_tolerance_mm = 0;       // disagreement that triggers one; 0 = auto (1.5 × max
                                           // spacing)
   // Stage 6: optimisation.
-  std::string optimize = "none";          // "none" | "default"
+  std::string optimize = "default";       // "default" | "none" (stage 5 as the paper has it)
   OptimizationOptions optimization;       // its options (preset: "optimization": {...})
   // Everywhere.
   std::uint64_t seed = 1;                 // every random choice is seeded from this

@@ -71,7 +71,8 @@ const std::vector<ParameterInfo>& parameter_infos() {
        "round; 0 = auto (1.5 × the largest voxel spacing).",
        S::mesh},
       {"optimize", "optimisation",
-       "Stage 6, mesh optimisation after generation (part of the mesh stage): none or default.",
+       "Stage 6, mesh optimisation after generation (part of the mesh stage): default (on) or "
+       "none (the paper's stage-5 mesh, slivers and all).",
        S::mesh},
       {"optimization", "stage 6 options",
        "Options of stage 6 (one field each in this section; preset key \"optimization\").",
