@@ -1,6 +1,7 @@
 #include "mesh_generation.h"
 
 #include <algorithm>
+#include <cassert>
 #include <cmath>
 #include <numeric>
 #include <tuple>
@@ -424,8 +425,10 @@ void DelaunayMesher::refine(const std::vector<Vec3>& new_surface,
                             const std::vector<int>& dropped_interior,
                             const std::vector<Vec3>& outside_points) {
   State& s = *s_;
-  s.progress("poles", 0.0);
   const int nb = int(s.surface.size()), ni = int(s.interior.size()), na = int(new_surface.size());
+  std::vector<char> drop(std::size_t(ni), 0);
+  for (int d : dropped_interior) drop.at(std::size_t(d)) = 1;  // checked before any change
+  s.progress("poles", 0.0);
   // 1. Delaunay(B) gains the new samples. Only samples whose Voronoi cell changed (the new
   // ones and their neighbours) can have new poles.
   for (int k = 0; k < na; ++k) {
@@ -458,8 +461,11 @@ void DelaunayMesher::refine(const std::vector<Vec3>& new_surface,
   }
   for (const auto& poles : old)
     for (const State::Pole& pole : poles)
-      if (pole.vertex != Delaunay::Vertex_handle() && --s.pole_uses[&*pole.vertex] == 0) {
-        s.pole_uses.erase(&*pole.vertex);
+      if (pole.vertex != Delaunay::Vertex_handle()) {
+        const auto uses = s.pole_uses.find(&*pole.vertex);
+        assert(uses != s.pole_uses.end() && uses->second > 0);
+        if (--uses->second > 0) continue;
+        s.pole_uses.erase(uses);
         s.dt.remove(pole.vertex);
       }
   s.progress.check_cancelled();
@@ -467,8 +473,6 @@ void DelaunayMesher::refine(const std::vector<Vec3>& new_surface,
   // 3. dt: B grows by the new samples, I loses the dropped ones; indices follow. Samples
   // rule 3 deleted come back, as the new samples may have resolved their pinch.
   s.progress("Delaunay", 0.3);
-  std::vector<char> drop(std::size_t(ni), 0);
-  for (int d : dropped_interior) drop.at(std::size_t(d)) = 1;
   for (int v : s.pinched) {
     if (v >= nb && drop[v - nb]) continue;
     const std::size_t before = s.dt.number_of_vertices();
@@ -477,6 +481,7 @@ void DelaunayMesher::refine(const std::vector<Vec3>& new_surface,
   }
   s.pinched.clear();
   std::vector<Delaunay::Vertex_handle> handle(s.handle.begin(), s.handle.begin() + nb);
+  handle.resize(std::size_t(nb + na));  // the new samples' handles follow below
   std::vector<Vec3> interior;
   for (int i = 0; i < ni; ++i) {
     const Delaunay::Vertex_handle v = s.handle[std::size_t(nb + i)];
@@ -485,8 +490,7 @@ void DelaunayMesher::refine(const std::vector<Vec3>& new_surface,
       continue;
     }
     interior.push_back(s.interior[i]);
-    handle.resize(std::size_t(nb + na) + interior.size());
-    handle.back() = v;
+    handle.push_back(v);
   }
   for (int k = 0; k < na; ++k) {
     const std::size_t before = s.dt.number_of_vertices();
@@ -574,9 +578,9 @@ MeshGenerationResult DelaunayMesher::mesh() {
   }
   // Without pinches every boundary link is one cycle, so every boundary edge has two faces:
   // peeling (rule 3's fallback) could only remove flat tets on the boundary, and those went
-  // above. Unless one is left, it is skipped, and rule 4's groups come from the cells'
-  // adjacency, not a face sort.
-  bool peel = options.repair_manifold && !pinch_free;
+  // in the last pass. So it is skipped, and rule 4's groups come from the cells' adjacency,
+  // not a face sort.
+  const bool peel = options.repair_manifold && !pinch_free;
   std::int32_t groups = 0;
   for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
     if (c->info().fate != kept_cell) continue;
@@ -587,7 +591,7 @@ MeshGenerationResult DelaunayMesher::mesh() {
     if (c->info().fate != kept_cell || c->info().component >= 0) continue;
     c->info().component = groups;
     queue.assign(1, c);
-    while (!queue.empty() && !peel) {
+    while (!queue.empty()) {
       const Delaunay::Cell_handle q = queue.back();
       queue.pop_back();
       for (int k = 0; k < 4; ++k) {
@@ -597,10 +601,6 @@ MeshGenerationResult DelaunayMesher::mesh() {
             n->info().component = groups;
             queue.push_back(n);
           }
-        } else if (options.repair_manifold) {  // q has a boundary face
-          Tet t;
-          for (int v = 0; v < 4; ++v) t[v] = q->vertex(v)->info();
-          peel = is_flat_tet(points, canonical(t));
         }
       }
     }

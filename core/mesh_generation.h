@@ -41,7 +41,7 @@ struct MeshGenerationOptions {
   std::vector<Vec3> outside_points;
   // Lloyd sites can be exactly coplanar and cospherical (centroids of symmetric voxel sets);
   // Delaunay then has flat tets. Interior points are nudged by up to this (mm), with a
-  // deterministic hash of their index and the seed, before triangulation.
+  // deterministic hash of their index (in the first I) and the seed, before triangulation.
   double interior_jitter_mm = 1e-3;
   std::uint64_t seed = 1;
   bool repair_manifold = true;      // rule 3: delete samples where the boundary pinches, then
@@ -100,7 +100,10 @@ class DelaunayMesher {
 
   // Appends samples to B, drops samples of I (indices into the current I; the others keep
   // their order), and adds points for rule 2's outside_points. Vertex indices of later meshes
-  // are into the new B then I.
+  // are into the new B then I. The result is the mesh a fresh build of the refined samples
+  // would give, except that interior samples keep the jitter of their first index and hull
+  // poles keep the first B's distance scale. After an exception (a cancel, a bad index) the
+  // mesher must not be used again.
   void refine(const std::vector<Vec3>& new_surface_samples, const std::vector<int>& dropped_interior,
               const std::vector<Vec3>& outside_points);
 

@@ -169,3 +169,27 @@ TEST(DelaunayMesher, ABoxSampledOnAGridIsExactlyTheBox) {
   EXPECT_TRUE(r.repair.manifold);
   EXPECT_NEAR(q.volume_mm3, n * n * n * h * h * h, 1e-6);
 }
+
+TEST(DelaunayMesher, RefiningAwayEveryInteriorSampleLeavesASurfaceOnlyMesh) {
+  const double R = 10;
+  const std::vector<Vec3> surface = sphere_points(300, R, 0), added = sphere_points(40, R, 0.7);
+  const std::vector<Vec3> interior = {{0, 0, 0}, {2, 1, 0}, {-1, 3, 2}};
+  const OccupancyFunction occupancy = [&](const Vec3& p) {
+    return std::clamp(0.5 - (norm(p) - R) / 2, 0.0, 1.0);
+  };
+  for (const bool with_interior : {true, false}) {
+    DelaunayMesher mesher(surface, with_interior ? interior : std::vector<Vec3>{}, occupancy);
+    mesher.mesh();
+    mesher.refine(added, with_interior ? std::vector<int>{0, 1, 2} : std::vector<int>{}, {});
+    const MeshGenerationResult r = mesher.mesh();
+    expect_valid(compute_quality(r.mesh));
+    ASSERT_EQ(r.vertex_source.size(), r.mesh.vertices.size());
+    for (std::size_t v = 0; v < r.mesh.vertices.size(); ++v) {
+      ASSERT_LT(r.vertex_source[v], 340);  // B and the added samples only
+      const Vec3& sample = r.vertex_source[v] < 300 ? surface[std::size_t(r.vertex_source[v])]
+                                                    : added[std::size_t(r.vertex_source[v] - 300)];
+      EXPECT_EQ(r.mesh.vertices[v], sample);
+    }
+    EXPECT_THROW(mesher.refine({}, {7}, {}), std::out_of_range);  // no interior sample 7
+  }
+}
