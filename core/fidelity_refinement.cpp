@@ -227,23 +227,20 @@ MeshGenerationResult build_refined_mesh(const PreprocessResult& pre, const std::
     // Interior samples this close to the new boundary samples would make slivers there.
     SpacedPoints near(2.0 * spacing);
     for (const Vec3& p : fix.samples) near.add(p);
-    std::vector<Vec3> kept, dropped;
-    std::vector<int> dropped_index;
+    std::vector<Vec3> kept;
+    std::vector<int> dropped;  // indices into i
     kept.reserve(i.size());
-    for (std::size_t n = 0; n < i.size(); ++n) {
-      if (!near.has_neighbour(i[n])) {
+    for (std::size_t n = 0; n < i.size(); ++n)
+      if (near.has_neighbour(i[n]))
+        dropped.push_back(int(n));
+      else
         kept.push_back(i[n]);
-        continue;
-      }
-      dropped.push_back(i[n]);
-      dropped_index.push_back(int(n));
-    }
     r.dropped_interior = dropped.size();
     std::vector<Vec3> next_b = b;
     next_b.insert(next_b.end(), fix.samples.begin(), fix.samples.end());
     // The triangulation changes only around the new samples; a rejected round ends
     // refinement, so the mesher is not needed in its old state again.
-    mesher.refine(fix.samples, dropped_index, fix.outside_points);
+    mesher.refine(fix.samples, dropped, fix.outside_points);
     MeshGenerationResult next = mesher.mesh();
     FidelityFix next_fix = check(next, next_b);
     // A round must reduce the disagreement, or its mesh is dropped and refinement ends.
@@ -251,7 +248,7 @@ MeshGenerationResult build_refined_mesh(const PreprocessResult& pre, const std::
     rounds.push_back(r);
     if (!r.accepted) break;
     added_all.insert(added_all.end(), fix.samples.begin(), fix.samples.end());
-    dropped_all.insert(dropped_all.end(), dropped.begin(), dropped.end());
+    for (int n : dropped) dropped_all.push_back(i[std::size_t(n)]);
     b = std::move(next_b);
     i = std::move(kept);
     result = std::move(next);

@@ -287,19 +287,6 @@ void poles_of(const Delaunay& dt, Delaunay::Vertex_handle v, const PoleFrame& fr
 
 }  // namespace
 
-std::vector<Vec3> compute_poles(const std::vector<Vec3>& surface, const Progress& progress) {
-  std::vector<std::pair<Point, int>> pts;
-  pts.reserve(surface.size());
-  for (std::size_t i = 0; i < surface.size(); ++i) pts.push_back({to_point(surface[i]), int(i)});
-  const Delaunay dt = triangulate(pts, progress);
-  const PoleFrame frame = pole_frame(surface);
-  std::vector<Vec3> poles;
-  std::vector<Delaunay::Cell_handle> cells;
-  for (auto v = dt.finite_vertices_begin(); v != dt.finite_vertices_end(); ++v)
-    poles_of(dt, v, frame, cells, poles);
-  return poles;
-}
-
 // What stage 5 keeps between rounds: Delaunay(B) for the poles, each sample's poles, and
 // Delaunay(B ∪ I ∪ EP) with the cells' cached rule results.
 struct DelaunayMesher::State {

@@ -118,9 +118,4 @@ MeshGenerationResult build_delaunay_mesh(const std::vector<Vec3>& surface_sample
                                          const MeshGenerationOptions& options = {},
                                          const Progress& progress = {});
 
-// Poles of each surface sample (paper III-F): the farthest Voronoi vertex, and the farthest on
-// the opposite side; for samples on the convex hull, a point far out along the outward normal.
-std::vector<Vec3> compute_poles(const std::vector<Vec3>& surface_samples,
-                                const Progress& progress = {});
-
 }  // namespace cvt
