@@ -545,8 +545,10 @@ class XvfbDisplay:
         if not xvfb:
             raise unittest.SkipTest("Xvfb not installed (scripts/install-deps installs xvfb)")
         read_fd, write_fd = os.pipe()
+        # -noreset: without it the server resets whenever its last client leaves, and a viewer
+        # run that connects during the reset fails ("Failed to open display"; seen in CI).
         self.proc = subprocess.Popen([xvfb, "-displayfd", str(write_fd), "-screen", "0",
-                                      "1280x800x24", "-nolisten", "tcp"],
+                                      "1280x800x24", "-nolisten", "tcp", "-noreset"],
                                      pass_fds=[write_fd], stderr=subprocess.DEVNULL)
         os.close(write_fd)
         with os.fdopen(read_fd) as f:
