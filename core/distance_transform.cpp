@@ -7,8 +7,8 @@
 // and k lines are processed in tiles of kTileWidth adjacent lines, copied in and out by
 // contiguous row pieces rather than one strided element at a time. Lines are independent, so
 // the result does not depend on how TBB splits them among threads. Without the feature
-// transform, passes j and k search 8 lines at once instead (min_plus, below) where AVX2 or
-// AVX-512 is available.
+// transform, passes j and k search 16 lines at once in float instead (distance_min_plus.h),
+// where AVX2 or AVX-512 is available.
 #include "distance_transform.h"
 
 #include <tbb/blocked_range.h>
@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "distance_min_plus.h"
 #include "errors.h"
 
 #ifdef __linux__
@@ -49,23 +50,6 @@ constexpr int kTileWidth = 32;
 #define CVT_INLINE_IN_CLONES inline
 #endif
 
-constexpr int kLanes = 8;  // lines per search group of the distance-only path
-static_assert(kTileWidth % kLanes == 0);
-
-struct DncScratch {
-  std::vector<double> value;       // kLanes per sample: the lines' input values, as doubles
-  std::vector<double> argmin;      // kLanes per sample: a minimiser found for it
-  std::vector<double> value_max;   // per sample: the largest input value on the kLanes lines
-  std::vector<unsigned char> cut;  // per sample: all kLanes lines have a feature there
-  explicit DncScratch(const std::array<int, 3>& dims) {
-    const int longest = std::max(dims[1], dims[2]);
-    value.resize(std::size_t(kLanes) * (longest + 1));
-    argmin.resize(value.size());
-    value_max.resize(longest + 1);
-    cut.resize(longest + 1);
-  }
-};
-
 // Per-thread work memory, sized once for the longest axis so no line allocates.
 struct Scratch {
   std::vector<float> tile_value;         // a tile of lines, row-major (kTileWidth per row)
@@ -76,7 +60,7 @@ struct Scratch {
   std::vector<double> site, site_f, site_F, rise, run;
   std::vector<std::int32_t> site_index;
   std::vector<int> ends_at;  // fill: how many intervals end just before each sample
-  DncScratch dnc;            // the distance-only path's
+  detail::MinPlusScratch dnc;  // the distance-only path's
 
   explicit Scratch(const std::array<int, 3>& dims) : dnc(dims) {
     const int longest = std::max({dims[0], dims[1], dims[2]});
@@ -279,285 +263,6 @@ CVT_INLINE_IN_CLONES void envelope_line(float* value, std::int32_t* index, int n
     fill_from_envelope<kNearest>(value, index, w, pending, n, m, s);
 }
 
-// ---- Distance only: the lower envelope of 8 adjacent lines at once, without a stack ----------
-//
-// value[p] ← min_q value[q] + w·(p − q)². The argmin is monotone in p (the matrix
-// v(p, q) = f_q + w·(p − q)² is Monge, since the kernel is convex): if q is a minimiser at p, no
-// q' < q beats q at any p' > p, and no q' > q beats it at any p' < p. So once some minimiser is
-// known at p − s and at p + s, the minimiser at p lies between them (divide and conquer, ~log2 n
-// candidates per sample). It also lies within √(f_p / w) of p, since q = p itself offers f_p:
-// near features the search shrinks to a few samples. Eight lines share each search (their union
-// of ranges), one double per line in a vector, so the arithmetic is branch-free SIMD; searching
-// more candidates than a line needs does not change its minimum.
-//
-// The minimum is taken over the same doubles the stack code evaluates, f_q + (w·d)·d, and
-// rounded to float once, so both give the same floats wherever double arithmetic resolves which
-// parabola is lowest.
-// (GCC on x86-64 only: generic vectors, __builtin_shuffle and run-time ISA dispatch.)
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-// Eight lines' doubles, as one 64-byte vector (the AVX-512 instantiation) or as two 32-byte
-// halves (the AVX2 one). The operations are the same IEEE operations on the same lanes either
-// way (no FMA), so both give the same bits.
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wpsabi"  // vector arguments of always-inline helpers only
-#define CVT_ALWAYS_INLINE __attribute__((always_inline)) inline
-
-struct OneVector {
-  typedef double D __attribute__((vector_size(64)));
-  typedef std::int64_t I __attribute__((vector_size(64)));
-  typedef double Du __attribute__((vector_size(64), aligned(8), may_alias));
-  typedef float Fu __attribute__((vector_size(32), aligned(4), may_alias));
-  D v;
-  static CVT_ALWAYS_INLINE OneVector splat(double x) { return {D{} + x}; }
-  static CVT_ALWAYS_INLINE OneVector load(const double* at) { return {*(const Du*)at}; }
-  static CVT_ALWAYS_INLINE OneVector load(const float* at) {
-    return {__builtin_convertvector(*(const Fu*)at, D)};
-  }
-  CVT_ALWAYS_INLINE void store(double* at) const { *(Du*)at = v; }
-  CVT_ALWAYS_INLINE void store(float* at) const { *(Fu*)at = __builtin_convertvector(v, Fu); }
-  friend CVT_ALWAYS_INLINE OneVector max(OneVector x, OneVector y) {
-    return {x.v > y.v ? x.v : y.v};
-  }
-  friend CVT_ALWAYS_INLINE OneVector min(OneVector x, OneVector y) {
-    return {x.v < y.v ? x.v : y.v};
-  }
-  CVT_ALWAYS_INLINE double lane_max() const {
-    D m = v > __builtin_shuffle(v, I{4, 5, 6, 7, 0, 1, 2, 3})
-              ? v
-              : __builtin_shuffle(v, I{4, 5, 6, 7, 0, 1, 2, 3});
-    const D a = __builtin_shuffle(m, I{2, 3, 0, 1, 6, 7, 4, 5});
-    m = m > a ? m : a;
-    const D b = __builtin_shuffle(m, I{1, 0, 3, 2, 5, 4, 7, 6});
-    m = m > b ? m : b;
-    return m[0];
-  }
-  CVT_ALWAYS_INLINE double lane_min() const {
-    const D s = __builtin_shuffle(v, I{4, 5, 6, 7, 0, 1, 2, 3});
-    D m = v < s ? v : s;
-    const D a = __builtin_shuffle(m, I{2, 3, 0, 1, 6, 7, 4, 5});
-    m = m < a ? m : a;
-    const D b = __builtin_shuffle(m, I{1, 0, 3, 2, 5, 4, 7, 6});
-    m = m < b ? m : b;
-    return m[0];
-  }
-  // first ← q where finite (q runs backwards), last ← max(last, q) where finite.
-  CVT_ALWAYS_INLINE void note_finite(double q, OneVector& first, OneVector& last) const {
-    first.v = v < kInf ? D{} + q : first.v;
-    const D finite_q = v < kInf ? D{} + q : D{} - 1.0;
-    last.v = finite_q > last.v ? finite_q : last.v;
-  }
-  // Candidate q, at value f + t: where strictly lower, it becomes the best.
-  CVT_ALWAYS_INLINE void offer(double t, OneVector q, OneVector& best, OneVector& arg) const {
-    const D value = v + t;
-    arg.v = value < best.v ? q.v : arg.v;
-    best.v = value < best.v ? value : best.v;
-  }
-  // Merges a second (best, arg) pair in: where strictly lower, it wins.
-  static CVT_ALWAYS_INLINE void merge(OneVector best2, OneVector arg2, OneVector& best,
-                                      OneVector& arg) {
-    arg.v = best2.v < best.v ? arg2.v : arg.v;
-    best.v = best2.v < best.v ? best2.v : best.v;
-  }
-  CVT_ALWAYS_INLINE OneVector operator+(double x) const { return {v + x}; }
-};
-
-struct TwoHalves {
-  typedef double D __attribute__((vector_size(32)));
-  typedef std::int64_t I __attribute__((vector_size(32)));
-  typedef double Du __attribute__((vector_size(32), aligned(8), may_alias));
-  typedef float Fu __attribute__((vector_size(16), aligned(4), may_alias));
-  D a, b;
-  static CVT_ALWAYS_INLINE TwoHalves splat(double x) { return {D{} + x, D{} + x}; }
-  static CVT_ALWAYS_INLINE TwoHalves load(const double* at) {
-    return {*(const Du*)at, *(const Du*)(at + 4)};
-  }
-  static CVT_ALWAYS_INLINE TwoHalves load(const float* at) {
-    return {__builtin_convertvector(*(const Fu*)at, D),
-            __builtin_convertvector(*(const Fu*)(at + 4), D)};
-  }
-  CVT_ALWAYS_INLINE void store(double* at) const {
-    *(Du*)at = a;
-    *(Du*)(at + 4) = b;
-  }
-  CVT_ALWAYS_INLINE void store(float* at) const {
-    *(Fu*)at = __builtin_convertvector(a, Fu);
-    *(Fu*)(at + 4) = __builtin_convertvector(b, Fu);
-  }
-  friend CVT_ALWAYS_INLINE TwoHalves max(TwoHalves x, TwoHalves y) {
-    return {x.a > y.a ? x.a : y.a, x.b > y.b ? x.b : y.b};
-  }
-  friend CVT_ALWAYS_INLINE TwoHalves min(TwoHalves x, TwoHalves y) {
-    return {x.a < y.a ? x.a : y.a, x.b < y.b ? x.b : y.b};
-  }
-  CVT_ALWAYS_INLINE double lane_max() const {
-    D m = a > b ? a : b;
-    const D s = __builtin_shuffle(m, I{2, 3, 0, 1});
-    m = m > s ? m : s;
-    const D t = __builtin_shuffle(m, I{1, 0, 3, 2});
-    m = m > t ? m : t;
-    return m[0];
-  }
-  CVT_ALWAYS_INLINE double lane_min() const {
-    D m = a < b ? a : b;
-    const D s = __builtin_shuffle(m, I{2, 3, 0, 1});
-    m = m < s ? m : s;
-    const D t = __builtin_shuffle(m, I{1, 0, 3, 2});
-    m = m < t ? m : t;
-    return m[0];
-  }
-  CVT_ALWAYS_INLINE void note_finite(double q, TwoHalves& first, TwoHalves& last) const {
-    first.a = a < kInf ? D{} + q : first.a;
-    first.b = b < kInf ? D{} + q : first.b;
-    const D qa = a < kInf ? D{} + q : D{} - 1.0, qb = b < kInf ? D{} + q : D{} - 1.0;
-    last.a = qa > last.a ? qa : last.a;
-    last.b = qb > last.b ? qb : last.b;
-  }
-  CVT_ALWAYS_INLINE void offer(double t, TwoHalves q, TwoHalves& best, TwoHalves& arg) const {
-    const D va = a + t, vb = b + t;
-    arg.a = va < best.a ? q.a : arg.a;
-    arg.b = vb < best.b ? q.b : arg.b;
-    best.a = va < best.a ? va : best.a;
-    best.b = vb < best.b ? vb : best.b;
-  }
-  static CVT_ALWAYS_INLINE void merge(TwoHalves best2, TwoHalves arg2, TwoHalves& best,
-                                      TwoHalves& arg) {
-    arg.a = best2.a < best.a ? arg2.a : arg.a;
-    arg.b = best2.b < best.b ? arg2.b : arg.b;
-    best.a = best2.a < best.a ? best2.a : best.a;
-    best.b = best2.b < best.b ? best2.b : best.b;
-  }
-  CVT_ALWAYS_INLINE TwoHalves operator+(double x) const { return {a + x, b + x}; }
-};
-
-// The `lanes` ≤ kLanes adjacent lines starting at value[first], n samples `stride` apart, in
-// place. w_d2[d] = (w·d)·d for d = −(n − 1) … n − 1. Positions are held as doubles (exact
-// integers), so that all vector work is on doubles.
-template <class L>
-CVT_ALWAYS_INLINE void min_plus_lines(float* value, std::size_t first_sample, std::size_t stride,
-                                      int lanes, int n, double inv_w, const double* w_d2,
-                                      DncScratch& s) {
-  double* fd = s.value.data();
-  double* argmin = s.argmin.data();
-  double* value_max = s.value_max.data();
-  unsigned char* cut = s.cut.data();
-  auto sample = [&](int q) { return value + first_sample + std::size_t(q) * stride; };
-  // Per line, the first and last finite sample (lines without any: n and −1, so that they never
-  // widen a search); per sample, the largest value and whether it is a feature on all lines.
-  L first = L::splat(n), last = L::splat(-1);
-  for (int q = n - 1; q >= 0; --q) {
-    L f;
-    if (lanes == kLanes) {
-      f = L::load(sample(q));
-    } else {  // missing lines are +inf: lines without features, which never widen a search
-      float padded[kLanes];
-      std::fill_n(padded, kLanes, kInf);
-      std::copy_n(sample(q), lanes, padded);
-      f = L::load(padded);
-    }
-    f.store(fd + std::size_t(q) * kLanes);
-    f.note_finite(q, first, last);
-    value_max[q] = f.lane_max();
-    cut[q] = value_max[q] == 0.0;  // squared distances are never negative or NaN
-  }
-  if (first.lane_min() == n) return;  // no feature on any of the lines: they stay +inf
-  // Features on all lines at once cut the lines into independent segments, as in envelope_line.
-  // Features keep their 0 in place.
-  for (int a = 0; a < n;) {
-    if (cut[a]) {
-      ++a;
-      continue;
-    }
-    int b = a + 1;
-    while (b < n && !cut[b]) ++b;
-    // Samples [a, b): the cuts a − 1 and b are their own minimisers, so the minimisers of the
-    // segment lie between them.
-    const L lo_bound = a > 0 ? L::splat(a - 1) : first, hi_bound = b < n ? L::splat(b) : last;
-    const int m = b - a;
-    int top = 1;  // the largest power of two ≤ m: position P = p − a + 1 ∈ [1, m] by lowest bit
-    while (top * 2 <= m) top *= 2;
-    for (int step = top; step >= 1; step /= 2)
-      for (int P = step; P <= m; P += 2 * step) {
-        const int p = a + P - 1;
-        // Between the minimisers found at p − step and p + step, and within √(f_p / w) of p:
-        // further away w·d² > f_p ≥ the result (with a relative margin of 1e-9, far above
-        // rounding).
-        const L lo = P > step ? max(L::load(argmin + std::size_t(p - step) * kLanes), lo_bound)
-                              : lo_bound;
-        const L hi = P + step <= m
-                         ? min(L::load(argmin + std::size_t(p + step) * kLanes), hi_bound)
-                         : hi_bound;
-        const double reach = std::sqrt(value_max[p] * inv_w) + 1.0;
-        const int from = int(std::max(lo.lane_min(), std::ceil(p - reach)));
-        const int to = int(std::min(hi.lane_max(), std::floor(p + reach)));
-        // Two independent (best, arg) chains over even and odd offsets, merged at the end.
-        L best = L::splat(kInf), arg = L::splat(p), best2 = best, arg2 = arg;
-        L qv = L::splat(from);
-        const double* t = w_d2 - p;
-        const double* f = fd + std::size_t(from) * kLanes;
-        int q = from;
-        for (; q < to; q += 2, f += 2 * kLanes) {
-          L::load(f).offer(t[q], qv, best, arg);
-          L::load(f + kLanes).offer(t[q + 1], qv + 1.0, best2, arg2);
-          qv = qv + 2.0;
-        }
-        if (q == to) L::load(f).offer(t[q], qv, best, arg);
-        L::merge(best2, arg2, best, arg);
-        arg.store(argmin + std::size_t(p) * kLanes);
-        if (lanes == kLanes) {
-          best.store(sample(p));
-        } else {
-          float result[kLanes];
-          best.store(result);
-          std::copy_n(result, lanes, sample(p));
-        }
-      }
-    a = b;
-  }
-}
-
-#undef CVT_ALWAYS_INLINE
-#pragma GCC diagnostic pop
-
-// Distance only: `width` adjacent lines from value[first], n samples `stride` apart, in place,
-// in groups of kLanes lines. Returns false, doing nothing, where neither AVX-512 nor AVX2 is
-// available: the caller then runs the stack code (the vector code compiled for baseline SSE2
-// was measured ~13× slower than the stack code).
-__attribute__((target("avx512f"))) void min_plus_avx512(float* value, std::size_t first,
-                                                          std::size_t stride, int width, int n,
-                                                          double inv_w, const double* w_d2,
-                                                          DncScratch& s) {
-  for (int g = 0; g < width; g += kLanes)
-    min_plus_lines<OneVector>(value, first + g, stride, std::min(kLanes, width - g), n, inv_w,
-                              w_d2, s);
-}
-
-__attribute__((target("avx2"))) void min_plus_avx2(float* value, std::size_t first,
-                                                     std::size_t stride, int width, int n,
-                                                     double inv_w, const double* w_d2,
-                                                     DncScratch& s) {
-  for (int g = 0; g < width; g += kLanes)
-    min_plus_lines<TwoHalves>(value, first + g, stride, std::min(kLanes, width - g), n, inv_w,
-                              w_d2, s);
-}
-
-bool min_plus(float* value, std::size_t first, std::size_t stride, int width, int n, double w,
-              const double* w_d2, DncScratch& s) {
-  static const int isa = __builtin_cpu_supports("avx512f") ? 2
-                         : __builtin_cpu_supports("avx2") ? 1
-                                                          : 0;
-  const double inv_w = (1.0 + 1e-9) / w;
-  if (isa == 2)
-    min_plus_avx512(value, first, stride, width, n, inv_w, w_d2, s);
-  else if (isa == 1)
-    min_plus_avx2(value, first, stride, width, n, inv_w, w_d2, s);
-  return isa != 0;
-}
-#else
-bool min_plus(float*, std::size_t, std::size_t, int, int, double, const double*, DncScratch&) {
-  return false;
-}
-#endif
-
 template <class T>
 void copy_row(const T* from, int width, T* to) {
   // A full tile row has a compile-time size: inlined vector moves instead of a memmove call.
@@ -572,9 +277,9 @@ void copy_row(const T* from, int width, T* to) {
 template <bool kNearest>
 CVT_ENVELOPE_CLONES void envelope_tile(float* value, std::int32_t* index, std::size_t first,
                                        int width, int n, std::size_t stride, double w,
-                                       const double* w_q2, const double* w_d2, Scratch& s) {
+                                       const double* w_q2, const float* w_d2, Scratch& s) {
   if constexpr (!kNearest)
-    if (min_plus(value, first, stride, width, n, w, w_d2, s.dnc)) return;
+    if (detail::min_plus(value, first, stride, width, n, w, w_d2, s.dnc)) return;
   float* tv = s.tile_value.data();
   std::int32_t* ti = s.tile_index.data();
   for (int q = 0; q < n; ++q) {
@@ -602,9 +307,9 @@ void transform(const Mask& features, float* value, std::int32_t* index, const Pr
   for (int q = 0; q < nz; ++q) wz_q2[q] = wz * double(q) * double(q);
   // (w·d)·d for d = −(n − 1) … n − 1, exactly the stack code's w·d·d for a signed distance of
   // d samples; the pointers passed on are to d = 0.
-  std::vector<double> wy_d2(2 * std::size_t(ny)), wz_d2(2 * std::size_t(nz));
-  for (int d = 1 - ny; d < ny; ++d) wy_d2[d + ny] = wy * double(d) * double(d);
-  for (int d = 1 - nz; d < nz; ++d) wz_d2[d + nz] = wz * double(d) * double(d);
+  std::vector<float> wy_d2(2 * std::size_t(ny) + 3), wz_d2(2 * std::size_t(nz) + 3);
+  for (int d = 1 - ny; d < ny + 3; ++d) wy_d2[d + ny] = float(wy * double(d) * double(d));
+  for (int d = 1 - nz; d < nz + 3; ++d) wz_d2[d + nz] = float(wz * double(d) * double(d));
   const std::size_t slice = std::size_t(nx) * std::size_t(ny);
   const int tiles_per_row = (nx + kTileWidth - 1) / kTileWidth;
   tbb::enumerable_thread_specific<Scratch> scratch(features.grid.dims);
