@@ -139,7 +139,7 @@ SurfaceDistance surface_distance(const TriangleSurface& a, const TriangleSurface
   // at a time, so its samples and distances are freed before the other's are made.
   std::vector<std::pair<double, double>> all;
   auto one_side = [&](const TriangleSurface& from, const TriangleSurface& to,
-                      std::size_t& count, double& max, double& mean) {
+                      std::size_t& count, double& max, Vec3& max_at, double& mean) {
     const std::vector<Sample> s = distance_samples(from, h, progress);
     const std::vector<double> d = distances(s, to, progress);
     progress.check_cancelled();
@@ -147,15 +147,17 @@ SurfaceDistance surface_distance(const TriangleSurface& a, const TriangleSurface
     all.reserve(all.size() + s.size());
     double sum = 0, weight = 0;
     for (std::size_t i = 0; i < s.size(); ++i) {
-      max = std::max(max, d[i]);
+      if (d[i] > max) max = d[i], max_at = s[i].position;
       sum += s[i].weight * d[i], weight += s[i].weight;
       if (s[i].weight > 0) all.emplace_back(d[i], s[i].weight);
     }
     mean = weight > 0 ? sum / weight : 0;
     return std::pair{sum, weight};
   };
-  const auto [sum_a, w_a] = one_side(a, b, out.samples_a, out.a_to_b_max_mm, out.a_to_b_mean_mm);
-  const auto [sum_b, w_b] = one_side(b, a, out.samples_b, out.b_to_a_max_mm, out.b_to_a_mean_mm);
+  const auto [sum_a, w_a] = one_side(a, b, out.samples_a, out.a_to_b_max_mm, out.a_to_b_max_at,
+                                     out.a_to_b_mean_mm);
+  const auto [sum_b, w_b] = one_side(b, a, out.samples_b, out.b_to_a_max_mm, out.b_to_a_max_at,
+                                     out.b_to_a_mean_mm);
   out.hausdorff_mm = std::max(out.a_to_b_max_mm, out.b_to_a_max_mm);
   out.mean_mm = w_a + w_b > 0 ? (sum_a + sum_b) / (w_a + w_b) : 0;
   tbb::parallel_sort(all.begin(), all.end());
@@ -224,8 +226,14 @@ nlohmann::json to_json(const FidelityReport& r) {
           {"hausdorff_mm", d.hausdorff_mm},
           {"mean_mm", d.mean_mm},
           {"p95_mm", d.p95_mm},
-          {"mesh_to_object", {{"max_mm", d.a_to_b_max_mm}, {"mean_mm", d.a_to_b_mean_mm}}},
-          {"object_to_mesh", {{"max_mm", d.b_to_a_max_mm}, {"mean_mm", d.b_to_a_mean_mm}}},
+          {"mesh_to_object",
+           {{"max_mm", d.a_to_b_max_mm},
+            {"max_at_mm", {d.a_to_b_max_at.x, d.a_to_b_max_at.y, d.a_to_b_max_at.z}},
+            {"mean_mm", d.a_to_b_mean_mm}}},
+          {"object_to_mesh",
+           {{"max_mm", d.b_to_a_max_mm},
+            {"max_at_mm", {d.b_to_a_max_at.x, d.b_to_a_max_at.y, d.b_to_a_max_at.z}},
+            {"mean_mm", d.b_to_a_mean_mm}}},
           {"sample_spacing_mm", d.sample_spacing_mm},
           {"samples", {{"mesh", d.samples_a}, {"object", d.samples_b}}},
           {"object_surface_triangles", r.object_surface_triangles},

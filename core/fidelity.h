@@ -26,6 +26,7 @@ struct SurfaceDistance {
   double p95_mm = 0;        // area-weighted 95th percentile over both directions
   double a_to_b_max_mm = 0, a_to_b_mean_mm = 0;
   double b_to_a_max_mm = 0, b_to_a_mean_mm = 0;
+  Vec3 a_to_b_max_at, b_to_a_max_at;  // where the maxima are: a sample of a, of b (mm)
   double sample_spacing_mm = 0;  // the spacing used (may be coarser than asked, see max_samples)
   std::size_t samples_a = 0, samples_b = 0;
 };
@@ -76,7 +77,8 @@ Mask fidelity_object(const Image& image, const ObjectSelection& selection,
                      const CleanupOptions& cleanup);
 
 // {"mesh_volume_mm3","object_volume_mm3","volume_error_percent","hausdorff_mm","mean_mm",
-//  "p95_mm","mesh_to_object":{"max_mm","mean_mm"},"object_to_mesh":{...},"sample_spacing_mm",
+//  "p95_mm","mesh_to_object":{"max_mm","max_at_mm":[x,y,z],"mean_mm"},"object_to_mesh":{...},
+//  "sample_spacing_mm",
 //  "samples":{"mesh","object"},"object_surface_triangles","object_surface_euler",
 //  "object_surface_components"}
 nlohmann::json to_json(const FidelityReport& report);

@@ -130,6 +130,12 @@ TEST(Fidelity, SingleVoxelCubeAgainstItsOctahedron) {
   EXPECT_NEAR(rep.distance.a_to_b_max_mm, corner, 1e-9);
   EXPECT_NEAR(rep.distance.hausdorff_mm, corner, 1e-9);
   EXPECT_LT(rep.distance.b_to_a_max_mm, corner);
+  // ... and the report says where: at one of the cube's corners, voxel index 1 ± ½ on each axis.
+  const Vec3 at = g.world_to_index(rep.distance.a_to_b_max_at);
+  for (double c : {at.x, at.y, at.z})
+    EXPECT_NEAR(std::abs(c - 1.0), 0.5, 1e-9) << at.x << " " << at.y << " " << at.z;
+  const nlohmann::json j = to_json(rep);
+  EXPECT_EQ(j["mesh_to_object"]["max_at_mm"][1], rep.distance.a_to_b_max_at.y);
 }
 
 // Every point of the voxel surface is within half a face diagonal of a marching-cubes vertex
