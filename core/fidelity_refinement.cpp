@@ -153,18 +153,43 @@ Mask voxelize(const TetMesh& mesh, const Grid& grid, const Progress& progress) {
 
 FidelityFix find_fidelity_fix(const Mask& mesh_inside, const PreprocessResult& pre,
                               const std::vector<Vec3>& existing, double tolerance_mm,
-                              double spacing_mm, const Progress& progress) {
+                              double spacing_mm, const Progress& progress,
+                              const std::vector<Vec3>& exposed_interior) {
   const Mask& object = pre.object;
   const Grid& grid = object.grid;
   FidelityFix fix;
+  SpacedPoints spaced(spacing_mm);
+  for (const Vec3& p : existing) spaced.add(p);
+  // A new surface sample where the object boundary is nearest to voxel v: between v and its
+  // nearest opposite voxel, on the indicator's 0.5 level.
+  auto add_sample_near = [&](std::size_t v) {
+    const std::int32_t u = pre.nearest_opposite.data[v];
+    if (u < 0) return;
+    const auto a = grid.ijk(v), b = grid.ijk(std::size_t(u));
+    Vec3 index{0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2])};
+    if (!project_to_level_set(pre.indicator, 0.5f, index, 1.5)) return;
+    const Vec3 world = grid.index_to_world(index);
+    if (spaced.has_neighbour(world)) return;
+    spaced.add(world);
+    fix.samples.push_back(world);
+  };
+  for (std::size_t e = 0; e < exposed_interior.size(); ++e) {
+    const Vec3 index = grid.world_to_index(exposed_interior[e]);
+    std::array<int, 3> ijk{};
+    for (int a = 0; a < 3; ++a)
+      ijk[a] = std::clamp(int(std::lround(index[a])), 0, grid.dims[a] - 1);
+    const std::size_t v = grid.linear(ijk[0], ijk[1], ijk[2]);
+    if (!object.data[v] || pre.distance_mm.data[v] <= tolerance_mm) continue;
+    ++fix.deep_boundary_samples;
+    fix.deep_boundary.push_back(e);
+    add_sample_near(v);
+  }
   bool any = false;
   for (std::size_t v = 0; v < object.size() && !any; ++v) any = mesh_inside.data[v] != object.data[v];
   if (!any) return fix;
   // How far each voxel is from the object boundary we know already; from the mesh boundary,
   // the probe tells whether it is within the tolerance.
   const MeshBoundaryProbe mesh_boundary(mesh_inside, tolerance_mm);
-  SpacedPoints spaced(spacing_mm);
-  for (const Vec3& p : existing) spaced.add(p);
   for (std::size_t v = 0; v < object.size(); ++v) {
     if (v % 65536 == 0) progress.check_cancelled();
     if (mesh_inside.data[v] == object.data[v]) continue;
@@ -175,18 +200,22 @@ FidelityFix find_fidelity_fix(const Mask& mesh_inside, const PreprocessResult& p
     ++fix.disagreeing_voxels;
     if (mesh_inside.data[v] && pre.indicator.data[v] < 0.5f)
       fix.outside_points.push_back(grid.voxel_to_world(v));
-    // The object boundary nearest to it lies between it and its nearest opposite voxel.
-    const std::int32_t u = pre.nearest_opposite.data[v];
-    if (u < 0) continue;
-    const auto a = grid.ijk(v), b = grid.ijk(std::size_t(u));
-    Vec3 index{0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2])};
-    if (!project_to_level_set(pre.indicator, 0.5f, index, 1.5)) continue;
-    const Vec3 world = grid.index_to_world(index);
-    if (spaced.has_neighbour(world)) continue;
-    spaced.add(world);
-    fix.samples.push_back(world);
+    add_sample_near(v);
   }
   return fix;
+}
+
+std::vector<int> interior_samples_on_boundary(const MeshGenerationResult& m,
+                                              std::size_t surface_count) {
+  std::vector<char> on_boundary(m.mesh.vertices.size(), 0);
+  for (const Triangle& t : boundary_triangles(m.mesh))
+    for (int k = 0; k < 3; ++k) on_boundary[std::size_t(t[k])] = 1;
+  std::vector<int> out;
+  for (std::size_t v = 0; v < on_boundary.size(); ++v)
+    if (on_boundary[v] && v < m.vertex_source.size() && m.vertex_source[v] >= 0 &&
+        std::size_t(m.vertex_source[v]) >= surface_count)
+      out.push_back(m.vertex_source[v] - int(surface_count));
+  return out;
 }
 
 MeshGenerationResult build_refined_mesh(const PreprocessResult& pre, const std::vector<Vec3>& surface,
@@ -205,10 +234,18 @@ MeshGenerationResult build_refined_mesh(const PreprocessResult& pre, const std::
   MeshGenerationOptions mesh_options = generation;
   if (mesh_options.small_tet_edge_mm == 0) mesh_options.small_tet_edge_mm = 2 * largest(grid.spacing);
 
-  const auto check = [&](const MeshGenerationResult& m, const std::vector<Vec3>& b) {
+  // The check also returns the deep exposed interior samples as indices into i.
+  const auto check = [&](const MeshGenerationResult& m, const std::vector<Vec3>& b,
+                         const std::vector<Vec3>& i, std::vector<int>& deep) {
     progress("fidelity check", 0.95);
-    return find_fidelity_fix(voxelize(m.mesh, grid, progress), pre, b, tolerance, spacing,
-                             progress);
+    const std::vector<int> exposed = interior_samples_on_boundary(m, b.size());
+    std::vector<Vec3> at;
+    for (int n : exposed) at.push_back(i[std::size_t(n)]);
+    FidelityFix fix = find_fidelity_fix(voxelize(m.mesh, grid, progress), pre, b, tolerance,
+                                        spacing, progress, at);
+    deep.clear();
+    for (std::size_t e : fix.deep_boundary) deep.push_back(exposed[e]);
+    return fix;
   };
 
   std::vector<Vec3> b = surface, i = interior;
@@ -217,10 +254,12 @@ MeshGenerationResult build_refined_mesh(const PreprocessResult& pre, const std::
   std::vector<FidelityRefinementRound> rounds;
   std::vector<Vec3> added_all, dropped_all;
   FidelityFix fix;
-  if (options.max_rounds > 0) fix = check(result, b);
+  std::vector<int> deep;  // interior samples (indices into i) at the bottom of pits
+  if (options.max_rounds > 0) fix = check(result, b, i, deep);
   for (int round = 0; round < options.max_rounds; ++round) {
-    FidelityRefinementRound r{fix.disagreeing_voxels, fix.samples.size(), 0, false};
-    if (fix.samples.empty() && fix.outside_points.empty()) {
+    FidelityRefinementRound r{fix.disagreeing_voxels, fix.deep_boundary_samples,
+                              fix.samples.size(), 0, false};
+    if (fix.samples.empty() && fix.outside_points.empty() && deep.empty()) {
       rounds.push_back(r);
       break;
     }
@@ -230,8 +269,10 @@ MeshGenerationResult build_refined_mesh(const PreprocessResult& pre, const std::
     std::vector<Vec3> kept;
     std::vector<int> dropped;  // indices into i
     kept.reserve(i.size());
+    std::vector<char> exposed(i.size(), 0);  // the pits' bottoms go, whatever their distance
+    for (int n : deep) exposed[std::size_t(n)] = 1;
     for (std::size_t n = 0; n < i.size(); ++n)
-      if (near.has_neighbour(i[n]))
+      if (exposed[n] || near.has_neighbour(i[n]))
         dropped.push_back(int(n));
       else
         kept.push_back(i[n]);
@@ -242,9 +283,11 @@ MeshGenerationResult build_refined_mesh(const PreprocessResult& pre, const std::
     // refinement, so the mesher is not needed in its old state again.
     mesher.refine(fix.samples, dropped, fix.outside_points);
     MeshGenerationResult next = mesher.mesh();
-    FidelityFix next_fix = check(next, next_b);
+    std::vector<int> next_deep;
+    FidelityFix next_fix = check(next, next_b, kept, next_deep);
     // A round must reduce the disagreement, or its mesh is dropped and refinement ends.
-    r.accepted = next_fix.disagreeing_voxels < fix.disagreeing_voxels;
+    r.accepted = next_fix.disagreeing_voxels + next_fix.deep_boundary_samples <
+                 fix.disagreeing_voxels + fix.deep_boundary_samples;
     rounds.push_back(r);
     if (!r.accepted) break;
     added_all.insert(added_all.end(), fix.samples.begin(), fix.samples.end());
@@ -253,6 +296,7 @@ MeshGenerationResult build_refined_mesh(const PreprocessResult& pre, const std::
     i = std::move(kept);
     result = std::move(next);
     fix = std::move(next_fix);
+    deep = std::move(next_deep);
   }
   result.added_surface_samples = std::move(added_all);
   result.dropped_interior_samples = std::move(dropped_all);

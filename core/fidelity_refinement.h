@@ -29,6 +29,11 @@ Mask voxelize(const TetMesh& mesh, const Grid& grid, const Progress& progress = 
 
 struct FidelityFix {
   std::size_t disagreeing_voxels = 0;  // where mesh and object differ by more than the tolerance
+  // Of the interior samples on the mesh boundary, those deeper in the object than the tolerance:
+  // the bottoms of pits too narrow to hold a voxel centre (presumably an exterior pole reached
+  // the sample through a gap in the surface samples).
+  std::size_t deep_boundary_samples = 0;
+  std::vector<std::size_t> deep_boundary;  // those samples, as indices into exposed_interior
   std::vector<Vec3> samples;           // surface samples to add (world, mm), spaced by at least
                                        // the spacing from each other and the existing ones
   std::vector<Vec3> outside_points;    // centres of those voxels the mesh covers though they are
@@ -36,9 +41,18 @@ struct FidelityFix {
 };
 
 // Where `mesh_inside` and pre.object disagree by more than the tolerance, and what to do there.
+// `exposed_interior`: the interior samples that lie on the mesh boundary (world, mm); each one
+// deeper in the object than the tolerance gets a new surface sample where the object boundary
+// is nearest to it.
 FidelityFix find_fidelity_fix(const Mask& mesh_inside, const PreprocessResult& pre,
                               const std::vector<Vec3>& existing, double tolerance_mm,
-                              double spacing_mm, const Progress& progress = {});
+                              double spacing_mm, const Progress& progress = {},
+                              const std::vector<Vec3>& exposed_interior = {});
+
+// The interior samples among the boundary vertices of a stage-5 mesh, as indices into its I
+// (vertex_source − surface_count), in vertex order.
+std::vector<int> interior_samples_on_boundary(const MeshGenerationResult& m,
+                                              std::size_t surface_count);
 
 // Stage 5 with up to max_rounds of refinement; the result records what was added and dropped.
 // A small_tet_edge_mm of 0 becomes 2 × the largest voxel spacing here.

@@ -54,8 +54,10 @@ struct MeshGenerationOptions {
 // One round of fidelity refinement (fidelity_refinement.h).
 struct FidelityRefinementRound {
   std::size_t disagreeing_voxels = 0;  // voxels where mesh and object differ beyond tolerance
+  std::size_t deep_boundary_samples = 0;  // interior samples on the boundary, deep in the object
   std::size_t added_samples = 0;       // surface samples added on the object boundary
-  std::size_t dropped_interior = 0;    // interior samples removed next to the new ones
+  std::size_t dropped_interior = 0;    // interior samples removed: next to the new ones, or
+                                       // deep on the boundary
   bool accepted = false;  // its mesh had fewer disagreeing voxels (else it was dropped)
 };
 

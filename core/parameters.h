@@ -36,7 +36,7 @@ struct Parameters {
   double epsilon_mm = 0;                  // stop when Σ displacement < ε; 0 = auto
   int max_iterations = 50;                // Lloyd iteration cap
   // Stage 5: mesh generation, refined where mesh and segmentation disagree.
-  int fidelity_rounds = 1;                // re-triangulations with added surface samples; 0 = off
+  int fidelity_rounds = 3;                // re-triangulations with added surface samples; 0 = off
   double fidelity_tolerance_mm = 0;       // disagreement that triggers one; 0 = auto (1.5 × max
                                           // spacing)
   // Stage 6: optimisation.

@@ -71,6 +71,7 @@ nlohmann::json run_report(const Pipeline& pipe) {
     json rounds = json::array();
     for (const FidelityRefinementRound& r : m->refinement)
       rounds.push_back({{"disagreeing_voxels", r.disagreeing_voxels},
+                        {"deep_boundary_samples", r.deep_boundary_samples},
                         {"added_samples", r.added_samples},
                         {"dropped_interior", r.dropped_interior},
                         {"accepted", r.accepted}});

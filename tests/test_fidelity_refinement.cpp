@@ -113,6 +113,28 @@ TEST(FidelityFix, AFilledSlotGetsSamplesOnItsWallsAndOutsidePointsInside) {
   for (const Vec3& p : fix.outside_points) EXPECT_LT(std::abs(p.x), 0.7);
 }
 
+TEST(FidelityFix, AnInteriorSampleDeepOnTheBoundaryGetsASampleWhereTheObjectEnds) {
+  // The bottom of a pit too narrow for a voxel centre: only the exposed interior sample shows it.
+  const Image image = slotted_image();
+  Pipeline pipe;
+  pipe.set_image(std::make_shared<Image>(image));
+  pipe.run_through(Stage::preprocess);
+  const PreprocessResult& pre = *pipe.preprocess();
+  // 0.5 mm above the bottom face z = −7 (its voxel is within the 2 mm tolerance: voxel
+  // distances are 1.3 mm, 2.6 mm, ... there), 3 mm above it, and in the slot (outside).
+  const std::vector<Vec3> exposed = {{-6, 0, -6.5}, {-6, 0, -4}, {0, 0, 5}};
+  const FidelityFix fix = find_fidelity_fix(pre.object, pre, {}, 2.0, 0.5, {}, exposed);
+  EXPECT_EQ(fix.disagreeing_voxels, 0u);
+  EXPECT_EQ(fix.deep_boundary_samples, 1u);
+  EXPECT_EQ(fix.deep_boundary, std::vector<std::size_t>{1});
+  ASSERT_EQ(fix.samples.size(), 1u);
+  const Vec3& s = fix.samples[0];  // on the bottom face below it, on the 0.5 level
+  EXPECT_NEAR(s.z, -7, 0.7) << s.x << " " << s.y << " " << s.z;
+  EXPECT_NEAR(s.x, -6, 0.7);
+  EXPECT_NEAR(s.y, 0, 0.7);
+  EXPECT_NEAR(sample_trilinear(pre.indicator, pre.object.grid.world_to_index(s)), 0.5, 1e-3);
+}
+
 TEST(FidelityRefinement, OpensANarrowSlotTheFirstMeshBridges) {
   const Image image = slotted_image();
   const SlotRun plain = run(image, 0), refined = run(image, 2);

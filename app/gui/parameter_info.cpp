@@ -63,8 +63,8 @@ const std::vector<ParameterInfo>& parameter_infos() {
       {"max_iterations", "max iterations", "Cap on Lloyd iterations.", S::cvt},
       {"fidelity_rounds", "fidelity rounds",
        "Stage 5: where the mesh and the segmentation disagree by more than the tolerance (a thin "
-       "channel bridged, a thin sheet missed), add surface samples and triangulate again, at "
-       "most this many times; 0 = off.",
+       "channel bridged, a thin sheet missed, a narrow pit down to an interior sample), add "
+       "surface samples and triangulate again, at most this many times; 0 = off.",
        S::mesh},
       {"fidelity_tolerance_mm", "fidelity tolerance (mm)",
        "Stage 5: disagreement (mm) between mesh and segmentation that triggers a refinement "
