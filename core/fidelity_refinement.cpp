@@ -259,7 +259,9 @@ MeshGenerationResult build_refined_mesh(const PreprocessResult& pre, const std::
   for (int round = 0; round < options.max_rounds; ++round) {
     FidelityRefinementRound r{fix.disagreeing_voxels, fix.deep_boundary_samples,
                               fix.samples.size(), 0, false};
-    if (fix.samples.empty() && fix.outside_points.empty() && deep.empty()) {
+    // After the first round, outside points alone are not worth a round: the previous round
+    // applied them already, and on the liver such a round was rejected at ~0.5 s.
+    if (fix.samples.empty() && deep.empty() && (round > 0 || fix.outside_points.empty())) {
       rounds.push_back(r);
       break;
     }
