@@ -9,9 +9,11 @@
 // (the union of their ranges), one float per line in a vector, so the arithmetic is branch-free
 // SIMD; searching more candidates than a line needs does not change its minimum.
 //
-// The arithmetic is in float: f_q + float(w·d²), all terms non-negative, so each candidate is
-// within a rounding or two of its exact value, and so is the minimum (a minimiser missed by a
-// rounding in the divide and conquer loses only by about a rounding too).
+// The search is in float: f_q + float(w·d²), all terms non-negative, so each candidate is within
+// a rounding or two of its exact value (a minimiser missed by a rounding in the divide and
+// conquer loses only by about a rounding too). The minimiser's value is then evaluated again in
+// double as the stack code evaluates it, f_q + (w·d)·d rounded once, so the two paths differ
+// only where float cannot order two nearly equal candidates (1 ulp, in ~1e-5 of the voxels).
 //
 // The search code (distance_min_plus_lines.inc) is compiled twice, under `#pragma GCC target`
 // for AVX-512 and for AVX2, and picked at run time. GCC on x86-64 only: generic vectors,
