@@ -180,7 +180,6 @@ FidelityFix find_fidelity_fix(const Mask& mesh_inside, const PreprocessResult& p
       ijk[a] = std::clamp(int(std::lround(index[a])), 0, grid.dims[a] - 1);
     const std::size_t v = grid.linear(ijk[0], ijk[1], ijk[2]);
     if (!object.data[v] || pre.distance_mm.data[v] <= tolerance_mm) continue;
-    ++fix.deep_boundary_samples;
     fix.deep_boundary.push_back(e);
     add_sample_near(v);
   }
@@ -257,7 +256,7 @@ MeshGenerationResult build_refined_mesh(const PreprocessResult& pre, const std::
   std::vector<int> deep;  // interior samples (indices into i) at the bottom of pits
   if (options.max_rounds > 0) fix = check(result, b, i, deep);
   for (int round = 0; round < options.max_rounds; ++round) {
-    FidelityRefinementRound r{fix.disagreeing_voxels, fix.deep_boundary_samples,
+    FidelityRefinementRound r{fix.disagreeing_voxels, fix.deep_boundary.size(),
                               fix.samples.size(), 0, false};
     // After the first round, outside points alone are not worth a round: the previous round
     // applied them already, and on the liver such a round was rejected at ~0.5 s.
@@ -288,8 +287,8 @@ MeshGenerationResult build_refined_mesh(const PreprocessResult& pre, const std::
     std::vector<int> next_deep;
     FidelityFix next_fix = check(next, next_b, kept, next_deep);
     // A round must reduce the disagreement, or its mesh is dropped and refinement ends.
-    r.accepted = next_fix.disagreeing_voxels + next_fix.deep_boundary_samples <
-                 fix.disagreeing_voxels + fix.deep_boundary_samples;
+    r.accepted = next_fix.disagreeing_voxels + next_fix.deep_boundary.size() <
+                 fix.disagreeing_voxels + fix.deep_boundary.size();
     rounds.push_back(r);
     if (!r.accepted) break;
     added_all.insert(added_all.end(), fix.samples.begin(), fix.samples.end());

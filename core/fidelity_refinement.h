@@ -29,11 +29,10 @@ Mask voxelize(const TetMesh& mesh, const Grid& grid, const Progress& progress = 
 
 struct FidelityFix {
   std::size_t disagreeing_voxels = 0;  // where mesh and object differ by more than the tolerance
-  // Of the interior samples on the mesh boundary, those deeper in the object than the tolerance:
-  // the bottoms of pits too narrow to hold a voxel centre (presumably an exterior pole reached
-  // the sample through a gap in the surface samples).
-  std::size_t deep_boundary_samples = 0;
-  std::vector<std::size_t> deep_boundary;  // those samples, as indices into exposed_interior
+  // Of the interior samples on the mesh boundary, those deeper in the object than the tolerance
+  // (indices into exposed_interior): the bottoms of pits too narrow to hold a voxel centre
+  // (presumably an exterior pole reached the sample through a gap in the surface samples).
+  std::vector<std::size_t> deep_boundary;
   std::vector<Vec3> samples;           // surface samples to add (world, mm), spaced by at least
                                        // the spacing from each other and the existing ones
   std::vector<Vec3> outside_points;    // centres of those voxels the mesh covers though they are
