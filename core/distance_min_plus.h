@@ -16,6 +16,7 @@ struct MinPlusScratch {
   std::vector<float> value;        // kMinPlusLanes per sample: the lines' input values
   std::vector<float> argmin;       // kMinPlusLanes per sample: a minimiser found for it
   std::vector<unsigned char> cut;  // per sample: all lines of the group have a feature there
+  std::vector<int> span;           // per search of one level: its first and last candidate
   explicit MinPlusScratch(const std::array<int, 3>& dims);
 };
 

@@ -24,6 +24,7 @@
 #include <string>
 #include <vector>
 
+#include "byte_runs.h"
 #include "distance_min_plus.h"
 #include "errors.h"
 
@@ -73,30 +74,6 @@ struct Scratch {
   }
 };
 
-// First i in [i, n) with a non-zero (feature) mask byte, or n. Skips eight bytes at a time, then
-// finds the byte within the word one by one (independent of byte order).
-int next_feature(const unsigned char* mask, int i, int n) {
-  for (; i + 8 <= n; i += 8) {
-    std::uint64_t w;
-    std::memcpy(&w, mask + i, 8);
-    if (w) break;
-  }
-  while (i < n && !mask[i]) ++i;
-  return i;
-}
-
-// First i in [i, n) with a zero mask byte, or n.
-int next_non_feature(const unsigned char* mask, int i, int n) {
-  constexpr std::uint64_t kOnes = 0x0101010101010101ull, kHighs = 0x8080808080808080ull;
-  for (; i + 8 <= n; i += 8) {
-    std::uint64_t w;
-    std::memcpy(&w, mask + i, 8);
-    if ((w - kOnes) & ~w & kHighs) break;  // non-zero exactly when some byte is zero
-  }
-  while (i < n && mask[i]) ++i;
-  return i;
-}
-
 // Samples [from, to) of a row all take the feature at `feature`: squared distance
 // squared_step[|i − feature|]. Plain loops over contiguous memory, so they vectorise.
 template <bool kNearest>
@@ -116,7 +93,7 @@ void fill_gap(float* value, std::int32_t* index, int from, int to, int feature,
 template <bool kNearest>
 void scan_row(const unsigned char* mask, float* value, std::int32_t* index, int n,
               std::int32_t row_start, const float* squared_step) {
-  int feature = next_feature(mask, 0, n);
+  int feature = detail::next_nonzero_byte(mask, 0, n);
   if (feature == n) {  // no feature in the row
     std::fill_n(value, n, kInf);
     if constexpr (kNearest) std::fill_n(index, n, -1);
@@ -124,13 +101,13 @@ void scan_row(const unsigned char* mask, float* value, std::int32_t* index, int 
   }
   fill_gap<kNearest>(value, index, 0, feature, feature, row_start, squared_step);
   for (;;) {
-    const int run_end = next_non_feature(mask, feature, n);
+    const int run_end = detail::next_zero_byte(mask, feature, n);
     std::fill(value + feature, value + run_end, 0.0f);
     if constexpr (kNearest)
       for (int i = feature; i < run_end; ++i) index[i] = row_start + i;
     if (run_end == n) return;
     const int last = run_end - 1;
-    feature = next_feature(mask, run_end, n);
+    feature = detail::next_nonzero_byte(mask, run_end, n);
     if (feature == n) {
       fill_gap<kNearest>(value, index, run_end, n, last, row_start, squared_step);
       return;
@@ -168,7 +145,7 @@ CVT_ENVELOPE_CLONES void fill_from_envelope(float* value, std::int32_t* index, d
   for (int p = lo; p < hi; ++p, x += 1.0) {
     k += ends_at[p];
     const double d = x - site[k];
-    value[p * stride] = float(sf[k] + w * d * d);
+    value[p * stride] = float(sf[k]) + float(w * d * d);
     if constexpr (kNearest) index[p * stride] = sindex[k];
   }
 }
@@ -184,8 +161,9 @@ bool is_zero(const float* v) {
 // One line of n samples of a tile (kTileWidth apart), squared spacing w:
 //   value[p] ← min_q value[q] + w·(p − q)²,  index[p] ← index[argmin q].
 // +inf samples hold no feature. Ties (as far as double arithmetic resolves them) keep the lower
-// q. The envelope arithmetic is in double, so the only rounding that matters is the float of
-// the stored values.
+// q. The envelope arithmetic is in double; the stored value is then f_q + float(w·(p − q)²), a
+// float sum, as the distance-only search evaluates its candidates: at the same minimiser both
+// give the same bits.
 //
 // A zero sample is a feature voxel: it keeps its value and index, and no parabola beyond it can
 // win on its other side (f_r + w·(p − r)² > w·(p − q)² when r < q < p). So zeros cut the line into

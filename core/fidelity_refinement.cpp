@@ -9,6 +9,7 @@
 #include <cmath>
 #include <cstdint>
 #include <unordered_map>
+#include <utility>
 
 #include "smoothing.h"
 #include "surface_sampling.h"
@@ -286,9 +287,12 @@ MeshGenerationResult build_refined_mesh(const PreprocessResult& pre, const std::
     MeshGenerationResult next = mesher.mesh();
     std::vector<int> next_deep;
     FidelityFix next_fix = check(next, next_b, kept, next_deep);
-    // A round must reduce the disagreement, or its mesh is dropped and refinement ends.
-    r.accepted = next_fix.disagreeing_voxels + next_fix.deep_boundary.size() <
-                 fix.disagreeing_voxels + fix.deep_boundary.size();
+    // A round must leave fewer pits, or as many pits and fewer disagreeing voxels; else its
+    // mesh is dropped and refinement ends. Pits first: each one is a deviation beyond the
+    // tolerance that no voxel shows (on the liver, trading the last pit for 4 more voxels took
+    // the mesh-to-object maximum from 3.2 to 2.0 mm).
+    r.accepted = std::pair(next_fix.deep_boundary.size(), next_fix.disagreeing_voxels) <
+                 std::pair(fix.deep_boundary.size(), fix.disagreeing_voxels);
     rounds.push_back(r);
     if (!r.accepted) break;
     added_all.insert(added_all.end(), fix.samples.begin(), fix.samples.end());
@@ -298,6 +302,9 @@ MeshGenerationResult build_refined_mesh(const PreprocessResult& pre, const std::
     result = std::move(next);
     fix = std::move(next_fix);
     deep = std::move(next_deep);
+    // Out of rounds: the last mesh's check closes the record, with no round of its own.
+    if (round + 1 == options.max_rounds)
+      rounds.push_back({fix.disagreeing_voxels, fix.deep_boundary.size(), 0, 0, false});
   }
   result.added_surface_samples = std::move(added_all);
   result.dropped_interior_samples = std::move(dropped_all);

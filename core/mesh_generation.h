@@ -58,7 +58,8 @@ struct FidelityRefinementRound {
   std::size_t added_samples = 0;       // surface samples added on the object boundary
   std::size_t dropped_interior = 0;    // interior samples removed: next to the new ones, or
                                        // deep on the boundary
-  bool accepted = false;  // its mesh had fewer disagreeing voxels (else it was dropped)
+  bool accepted = false;  // its mesh had fewer deep samples, or as many and fewer disagreeing
+                          // voxels (else it was dropped)
 };
 
 struct MeshGenerationResult {
@@ -81,7 +82,8 @@ struct MeshGenerationResult {
                                           // B then added_surface_samples; I without dropped.
   std::vector<Vec3> added_surface_samples;     // by fidelity refinement (world, mm)
   std::vector<Vec3> dropped_interior_samples;  // by fidelity refinement (world, mm)
-  std::vector<FidelityRefinementRound> refinement;  // one per check made
+  std::vector<FidelityRefinementRound> refinement;  // one per check of a kept mesh: the last
+                                                    // one is the final mesh's
 };
 
 // Stage 5 kept open for refinement: samples can be added to B and dropped from I, and the

@@ -288,10 +288,11 @@ TEST(DistanceTransform, DistanceOnlyMatchesFeatureTransformOnLongLines) {
     const FeatureTransform ft = cvt::compute_feature_transform(m);
     const FeatureTransform distance_only = cvt::compute_feature_transform(m, false);
     ASSERT_EQ(distance_only.squared_distance_mm2.size(), m.size());
-    // The search is in float, but its minima are evaluated in double as the stack code does:
-    // only where float cannot order two nearly equal candidates may the two differ, and then by
-    // a rounding or two (the pass-j difference carried into pass k). Non-negative floats order
-    // like their bit patterns, so the difference in bits counts units in the last place.
+    // Both paths evaluate a candidate as f + float(w·d²) in float; the stack code picks its
+    // minimiser in double, the search the lowest float. Only where float rounding orders two
+    // nearly equal candidates differently may the two differ, and then by a rounding or two (the
+    // pass-j difference carried into pass k). Non-negative floats order like their bit patterns,
+    // so the difference in bits counts units in the last place.
     int mismatches = 0;
     for (std::size_t v = 0; v < m.size() && mismatches < 10; ++v) {
       const float reference = ft.squared_distance_mm2.data[v];
@@ -309,9 +310,9 @@ TEST(DistanceTransform, DistanceOnlyMatchesFeatureTransformOnLongLines) {
     if (features < 5000) expect_matches_brute_force(m, 7);  // the sparse masks, cheaply
   }
   expect_matches_brute_force(masks[masks.size() - 5], 61);  // the ellipsoid, sampled
-  // Minima left in float would differ in ~7% of the voxels (measured on random masks);
-  // evaluated in double, in ~1e-5.
-  EXPECT_LT(differing, voxels / 1000) << differing << " of " << voxels << " voxels differ";
+  // 1 of these 3.55 M voxels differs (AVX-512 and AVX2). With the stack code rounding its
+  // minima otherwise, once from double (float(f + w·d²)), 232,665 do (6.5%).
+  EXPECT_LT(differing, voxels / 100000) << differing << " of " << voxels << " voxels differ";
 }
 
 FeatureTransform run_with_threads(const Mask& m, int threads) {
