@@ -5,7 +5,8 @@
 // q' < q beats q at any p' > p, and no q' > q beats it at any p' < p. So once some minimiser is
 // known at p − s and at p + s, the minimiser at p lies between them (divide and conquer, ~log2 n
 // candidates per sample). On each line it also lies within √(f_p / w) of p, since q = p itself
-// offers f_p: near features the search shrinks to a few samples. Sixteen lines share each search
+// offers f_p: a search bounded on one side only (at a segment's ends) shrinks to a few samples
+// near features. Sixteen lines share each search
 // (the union of their ranges), one float per line in a vector, so the arithmetic is branch-free
 // SIMD; searching more candidates than a line needs does not change its minimum.
 //
@@ -13,7 +14,8 @@
 // stack code of distance_transform.cpp evaluates the minimiser it finds in double: at the same
 // minimiser the two paths give bitwise the same value. They differ only where float rounding
 // orders two nearly equal candidates differently from double arithmetic (in about 1 voxel in a
-// million, by an ulp or two); the minimum taken here is then the lower one.
+// million, by an ulp or two): a minimiser that float rounding misplaces can narrow a later
+// search by a sample, which then loses about a rounding.
 //
 // Per level of the divide and conquer, all candidate ranges are computed first, then searched:
 // the ranges depend on the levels above only, so their reductions overlap instead of waiting
@@ -168,11 +170,13 @@ int instruction_set() {
 bool min_plus(float* value, std::size_t first, std::size_t stride, int width, int n, double w,
               const float* w_d2, MinPlusScratch& s) {
   static const int isa = instruction_set();
+  // Absurd spacings (1 / w out of float's range) would make the reach NaN: stack code, in double.
+  if (isa == 0 || !std::isnormal(float(1.0 / w))) return false;
   if (isa == 2)
     avx512::min_plus_group_lines(value, first, stride, width, n, w, w_d2, s);
   else if (isa == 1)
     avx2::min_plus_group_lines(value, first, stride, width, n, w, w_d2, s);
-  return isa != 0;
+  return true;
 }
 #else
 bool min_plus(float*, std::size_t, std::size_t, int, int, double, const float*, MinPlusScratch&) {

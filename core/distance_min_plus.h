@@ -22,8 +22,9 @@ struct MinPlusScratch {
 
 // value[p] ← min_q value[q] + w·(p − q)² on `width` adjacent lines from value[first], each n
 // samples `stride` apart, in place, in groups of kMinPlusLanes lines. w_d2[d] = float(w·d²) for
-// d = −(n − 1) … n − 1. Returns false, doing nothing, where neither AVX-512 nor AVX2 is
-// available (or the compiler is not GCC on x86-64 Linux): the caller then runs its stack code.
+// d = −(n − 1) … n + 2 (the search reads three guard rows past a line's end). Returns false,
+// doing nothing, where neither AVX-512 nor AVX2 is available (or the compiler is not GCC on
+// x86-64 Linux), or where 1 / w is no normal float: the caller then runs its stack code.
 // The environment variable CVTMESH_SIMD=avx2 or =none, read once, caps the instruction set (for
 // tests and benchmarks of the other paths).
 bool min_plus(float* value, std::size_t first, std::size_t stride, int width, int n, double w,

@@ -283,8 +283,8 @@ void transform(const Mask& features, float* value, std::int32_t* index, const Pr
   std::vector<double> wy_q2(ny), wz_q2(nz);  // w·q², the envelope test's form of the position
   for (int q = 0; q < ny; ++q) wy_q2[q] = wy * double(q) * double(q);
   for (int q = 0; q < nz; ++q) wz_q2[q] = wz * double(q) * double(q);
-  // (w·d)·d for d = −(n − 1) … n − 1, exactly the stack code's w·d·d for a signed distance of
-  // d samples; the pointers passed on are to d = 0.
+  // (w·d)·d for d = −(n − 1) … n + 2 (the search's guard rows), exactly the stack code's w·d·d
+  // for a signed distance of d samples; the pointers passed on are to d = 0.
   std::vector<float> wy_d2(2 * std::size_t(ny) + 3), wz_d2(2 * std::size_t(nz) + 3);
   for (int d = 1 - ny; d < ny + 3; ++d) wy_d2[d + ny] = float(wy * double(d) * double(d));
   for (int d = 1 - nz; d < nz + 3; ++d) wz_d2[d + nz] = float(wz * double(d) * double(d));

@@ -51,15 +51,16 @@ struct MeshGenerationOptions {
                                          // of the largest (stray slivers)
 };
 
-// One round of fidelity refinement (fidelity_refinement.h).
+// One check of fidelity refinement (fidelity_refinement.h) and the round made from it, if any.
 struct FidelityRefinementRound {
   std::size_t disagreeing_voxels = 0;  // voxels where mesh and object differ beyond tolerance
   std::size_t deep_boundary_samples = 0;  // interior samples on the boundary, deep in the object
   std::size_t added_samples = 0;       // surface samples added on the object boundary
   std::size_t dropped_interior = 0;    // interior samples removed: next to the new ones, or
                                        // deep on the boundary
-  bool accepted = false;  // its mesh had fewer deep samples, or as many and fewer disagreeing
-                          // voxels (else it was dropped)
+  bool accepted = false;  // its round's mesh had fewer deep samples, or as many and fewer
+                          // disagreeing voxels; false: dropped, or no round made (the last
+                          // check, when nothing was left to fix or no round was left)
 };
 
 struct MeshGenerationResult {

@@ -217,6 +217,25 @@ TEST(DistanceTransform, RejectsNonPositiveSpacing) {
   EXPECT_THROW(cvt::compute_feature_transform(m), cvt::InputError);
 }
 
+TEST(DistanceTransform, ExtremeSpacingsGiveNoNaN) {
+  // 1/w leaves float's range for spacings near 1e-20 mm (and w·d² for large ones): the searches
+  // hand such lines to the stack code rather than compute NaN bounds. Distances then round to 0
+  // or +inf, but stay ordered: features 0, nothing negative or NaN.
+  for (double tiny_or_huge : {1e-21, 1e21}) {
+    SCOPED_TRACE(tiny_or_huge);
+    Mask m = random_mask({20, 40, 40}, {1.0, tiny_or_huge, tiny_or_huge}, 0.01, 11);
+    for (bool nearest : {true, false}) {
+      const FeatureTransform ft = cvt::compute_feature_transform(m, nearest);
+      for (std::size_t v = 0; v < m.size(); ++v) {
+        const float d = ft.squared_distance_mm2.data[v];
+        ASSERT_FALSE(std::isnan(d)) << "voxel " << v;
+        ASSERT_GE(d, 0.0f) << "voxel " << v;
+        if (m.data[v]) ASSERT_EQ(d, 0.0f) << "voxel " << v;
+      }
+    }
+  }
+}
+
 TEST(DistanceTransform, ReusedOutputsMatchFreshOnes) {
   // One output reused across grids of other sizes and masks, with and without the feature
   // volume: stale values from an earlier mask must never leak into a later result.
