@@ -257,9 +257,15 @@ TEST(PipelineWorker, RunsInOrderCancelsAndDropsAfterAFailure) {
   }
   EXPECT_FALSE(worker.take_outcome());
 
-  // A failure drops what was queued behind it; its message is one line.
-  worker.submit("bad", [](JobContext&) { throw InputError("file x: broken\nsecond line"); });
+  // A failure drops what was queued behind it; its message is one line. The failing job waits
+  // until the next one is queued: otherwise it may fail first, leaving nothing to drop.
+  std::atomic<bool> queued{false};
+  worker.submit("bad", [&queued](JobContext&) {
+    while (!queued) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    throw InputError("file x: broken\nsecond line");
+  });
   worker.submit("after", [&order](JobContext&) { order.push_back(99); });
+  queued = true;
   worker.wait_idle();
   auto bad = worker.take_outcome();
   ASSERT_TRUE(bad);
