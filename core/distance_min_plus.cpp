@@ -85,14 +85,6 @@ struct Part {
     const __m512i bits = _mm512_castps_si512(x);
     return _mm512_test_epi32_mask(bits, bits) != 0;
   }
-  template <class Op>
-  static CVT_ALWAYS_INLINE float reduce(D m, Op op) {
-    m = op(m, __builtin_shuffle(m, I{8, 9, 10, 11, 12, 13, 14, 15, 0, 1, 2, 3, 4, 5, 6, 7}));
-    m = op(m, __builtin_shuffle(m, I{4, 5, 6, 7, 0, 1, 2, 3, 12, 13, 14, 15, 8, 9, 10, 11}));
-    m = op(m, __builtin_shuffle(m, I{2, 3, 0, 1, 6, 7, 4, 5, 10, 11, 8, 9, 14, 15, 12, 13}));
-    m = op(m, __builtin_shuffle(m, I{1, 0, 3, 2, 5, 4, 7, 6, 9, 8, 11, 10, 13, 12, 15, 14}));
-    return m[0];
-  }
   // The minima of x and of y, reduced side by side in the two halves of one vector.
   static CVT_ALWAYS_INLINE std::pair<float, float> min_pair(D x, D y) {
     D m = __builtin_shuffle(x, y, I{0, 1, 2, 3, 4, 5, 6, 7, 16, 17, 18, 19, 20, 21, 22, 23});
@@ -127,13 +119,6 @@ struct Part {
   static CVT_ALWAYS_INLINE bool any_bits(D x) {
     const __m256i bits = _mm256_castps_si256(x);
     return !_mm256_testz_si256(bits, bits);
-  }
-  template <class Op>
-  static CVT_ALWAYS_INLINE float reduce(D m, Op op) {
-    m = op(m, __builtin_shuffle(m, I{4, 5, 6, 7, 0, 1, 2, 3}));
-    m = op(m, __builtin_shuffle(m, I{2, 3, 0, 1, 6, 7, 4, 5}));
-    m = op(m, __builtin_shuffle(m, I{1, 0, 3, 2, 5, 4, 7, 6}));
-    return m[0];
   }
   static CVT_ALWAYS_INLINE std::pair<float, float> min_pair(D x, D y) {
     D m = __builtin_shuffle(x, y, I{0, 1, 2, 3, 8, 9, 10, 11});

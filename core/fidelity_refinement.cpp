@@ -303,10 +303,11 @@ MeshGenerationResult build_refined_mesh(const PreprocessResult& pre, const std::
     result = std::move(next);
     fix = std::move(next_fix);
     deep = std::move(next_deep);
-    // Out of rounds: the last mesh's check closes the record, with no round of its own.
-    if (round + 1 == options.max_rounds)
-      rounds.push_back({fix.disagreeing_voxels, fix.deep_boundary.size(), 0, 0, false});
   }
+  // Out of rounds after a kept one: the last mesh's check closes the record, with no round of
+  // its own. (A loop that stopped early recorded that check already.)
+  if (!rounds.empty() && rounds.back().accepted)
+    rounds.push_back({fix.disagreeing_voxels, fix.deep_boundary.size(), 0, 0, false});
   result.added_surface_samples = std::move(added_all);
   result.dropped_interior_samples = std::move(dropped_all);
   result.refinement = std::move(rounds);
