@@ -4,7 +4,7 @@
 #include <iostream>
 
 #include "commands.h"
-#include "errors.h"
+#include "base/errors.h"
 #include "signal_cancel.h"
 
 int main(int argc, char** argv) {

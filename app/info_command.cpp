@@ -7,7 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
-#include "image_io.h"
+#include "io/image_io.h"
 
 namespace cvt::cli {
 namespace {

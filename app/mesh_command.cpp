@@ -17,13 +17,13 @@
 #include <tbb/info.h>
 
 #include "commands.h"
-#include "errors.h"
-#include "image_io.h"
-#include "mesh_io.h"
+#include "base/errors.h"
+#include "io/image_io.h"
+#include "io/mesh_io.h"
 #include "parameter_options.h"
-#include "pipeline.h"
-#include "preset.h"
-#include "run_report.h"
+#include "pipeline/pipeline.h"
+#include "pipeline/preset.h"
+#include "pipeline/run_report.h"
 #include "signal_cancel.h"
 
 namespace cvt::cli {

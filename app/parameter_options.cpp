@@ -3,9 +3,9 @@
 #include <algorithm>
 #include <string>
 
-#include "errors.h"
-#include "object_selection.h"
-#include "preset.h"
+#include "base/errors.h"
+#include "preprocess/object_selection.h"
+#include "pipeline/preset.h"
 
 namespace cvt::cli {
 

@@ -8,7 +8,7 @@
 
 #include <CLI/CLI.hpp>
 
-#include "parameters.h"
+#include "pipeline/parameters.h"
 
 namespace cvt::cli {
 

@@ -13,14 +13,14 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.h"
-#include "errors.h"
-#include "fidelity.h"
-#include "image_io.h"
-#include "mesh_io.h"
+#include "base/errors.h"
+#include "evaluate/fidelity.h"
+#include "io/image_io.h"
+#include "io/mesh_io.h"
 #include "parameter_options.h"
-#include "pipeline.h"
-#include "preset.h"
-#include "quality.h"
+#include "pipeline/pipeline.h"
+#include "pipeline/preset.h"
+#include "evaluate/quality.h"
 
 namespace cvt::cli {
 namespace {

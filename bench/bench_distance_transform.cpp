@@ -20,7 +20,7 @@
 #include <string>
 #include <vector>
 
-#include "distance_transform.h"
+#include "fields/distance_transform.h"
 
 namespace {
 

@@ -14,13 +14,13 @@
 #include <memory>
 #include <string>
 
-#include "distance_transform.h"
-#include "image_io.h"
-#include "mesh_generation.h"
-#include "pipeline.h"
-#include "quality.h"
-#include "smoothing.h"
-#include "surface_sampling.h"
+#include "fields/distance_transform.h"
+#include "io/image_io.h"
+#include "meshing/mesh_generation.h"
+#include "pipeline/pipeline.h"
+#include "evaluate/quality.h"
+#include "fields/smoothing.h"
+#include "sampling/surface_sampling.h"
 
 namespace {
 

@@ -10,10 +10,10 @@
 #include <memory>
 #include <string>
 
-#include "cvt_sampling.h"
-#include "image_io.h"
-#include "preprocess.h"
-#include "shallow_points.h"
+#include "sampling/cvt_sampling.h"
+#include "io/image_io.h"
+#include "preprocess/preprocess.h"
+#include "sampling/shallow_points.h"
 
 namespace {
 

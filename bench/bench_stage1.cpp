@@ -13,8 +13,8 @@
 #include <string>
 #include <vector>
 
-#include "image_io.h"
-#include "preprocess.h"
+#include "io/image_io.h"
+#include "preprocess/preprocess.h"
 #include "stage_timing.h"
 
 namespace {

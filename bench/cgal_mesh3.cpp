@@ -34,7 +34,7 @@
 #include <string>
 #include <vector>
 
-#include "memory.h"
+#include "base/memory.h"
 
 namespace {
 

@@ -10,11 +10,11 @@
 #include <exception>
 #include <string>
 
-#include "fidelity.h"
-#include "image_io.h"
-#include "marching_cubes.h"
-#include "memory.h"
-#include "object_selection.h"
+#include "evaluate/fidelity.h"
+#include "io/image_io.h"
+#include "fields/marching_cubes.h"
+#include "base/memory.h"
+#include "preprocess/object_selection.h"
 
 int main(int argc, char** argv) {
   if (argc != 3 && !(argc == 5 && std::string(argv[3]) == "--labels")) {

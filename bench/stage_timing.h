@@ -5,7 +5,7 @@
 #include <cstdio>
 #include <string>
 
-#include "memory.h"
+#include "base/memory.h"
 
 namespace cvt::bench {
 

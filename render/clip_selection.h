@@ -6,7 +6,7 @@
 #include <cstdint>
 #include <vector>
 
-#include "tet_mesh.h"
+#include "base/tet_mesh.h"
 
 namespace cvt::render {
 

@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "colormap.h"
-#include "marching_cubes.h"
+#include "fields/marching_cubes.h"
 #include "quality_selection.h"
 #include "scene_data.h"
 

@@ -6,7 +6,7 @@
 #include <filesystem>
 #include <memory>
 
-#include "errors.h"
+#include "base/errors.h"
 
 namespace cvt::render {
 

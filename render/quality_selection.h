@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "quality.h"
+#include "evaluate/quality.h"
 
 namespace cvt::render {
 

@@ -12,8 +12,8 @@
 #include <vector>
 
 #include "clip_selection.h"
-#include "marching_cubes.h"
-#include "pipeline.h"
+#include "fields/marching_cubes.h"
+#include "pipeline/pipeline.h"
 
 namespace cvt::render {
 

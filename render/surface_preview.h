@@ -5,8 +5,8 @@
 
 #include <cstddef>
 
-#include "marching_cubes.h"
-#include "volume.h"
+#include "fields/marching_cubes.h"
+#include "base/volume.h"
 
 namespace cvt::render {
 

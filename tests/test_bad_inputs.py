@@ -29,7 +29,7 @@ import unittest
 import numpy as np
 
 CVTMESH = os.path.abspath(sys.argv[1] if len(sys.argv) > 1 else "build/app/cvtmesh")
-PHANTOM = os.path.abspath(sys.argv[2] if len(sys.argv) > 2 else "build/app/cvtmesh-phantom")
+PHANTOM = os.path.abspath(sys.argv[2] if len(sys.argv) > 2 else "build/tests/phantoms/cvtmesh-phantom")
 SOURCE = os.path.abspath(sys.argv[3] if len(sys.argv) > 3 else ".")
 GUI = os.path.abspath(sys.argv[4]) if len(sys.argv) > 4 and sys.argv[4] else None
 TORUS = os.path.join(SOURCE, "assets", "phantom_torus.nii.gz")

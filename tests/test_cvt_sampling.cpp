@@ -8,11 +8,11 @@
 #include <cmath>
 #include <limits>
 
-#include "cvt_sampling.h"
-#include "errors.h"
+#include "sampling/cvt_sampling.h"
+#include "base/errors.h"
 #include "phantoms.h"
-#include "preprocess.h"
-#include "shallow_points.h"
+#include "preprocess/preprocess.h"
+#include "sampling/shallow_points.h"
 
 using namespace cvt;
 

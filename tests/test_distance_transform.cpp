@@ -9,8 +9,8 @@
 #include <random>
 #include <vector>
 
-#include "distance_transform.h"
-#include "errors.h"
+#include "fields/distance_transform.h"
+#include "base/errors.h"
 
 using cvt::FeatureTransform;
 using cvt::Grid;

@@ -7,10 +7,10 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
-#include "fidelity.h"
-#include "marching_cubes.h"
+#include "evaluate/fidelity.h"
+#include "fields/marching_cubes.h"
 #include "phantoms.h"
-#include "quality.h"
+#include "evaluate/quality.h"
 
 using namespace cvt;
 

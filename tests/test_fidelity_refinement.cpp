@@ -7,12 +7,12 @@
 #include <cstdint>
 #include <utility>
 
-#include "fidelity.h"
-#include "fidelity_refinement.h"
+#include "evaluate/fidelity.h"
+#include "meshing/fidelity_refinement.h"
 #include "phantoms.h"
-#include "pipeline.h"
-#include "quality.h"
-#include "smoothing.h"
+#include "pipeline/pipeline.h"
+#include "evaluate/quality.h"
+#include "fields/smoothing.h"
 
 using namespace cvt;
 

@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "grid.h"
+#include "base/grid.h"
 
 using cvt::Grid;
 using cvt::Vec3;

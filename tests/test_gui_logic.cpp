@@ -22,11 +22,11 @@
 
 #include "frame_stats.h"
 #include "input_actions.h"
-#include "image_io.h"
+#include "io/image_io.h"
 #include "parameter_info.h"
 #include "phantoms.h"
 #include "pipeline_worker.h"
-#include "preset.h"
+#include "pipeline/preset.h"
 #include "recent_files.h"
 #include "session.h"
 #include "view_settings.h"

@@ -19,8 +19,8 @@
 #include <random>
 #include <sstream>
 
-#include "errors.h"
-#include "image_io.h"
+#include "base/errors.h"
+#include "io/image_io.h"
 
 namespace fs = std::filesystem;
 using cvt::Image;

@@ -2,7 +2,7 @@
 // repairs it, and rule 4's removal of small components.
 #include <gtest/gtest.h>
 
-#include "manifold_repair.h"
+#include "meshing/manifold_repair.h"
 
 namespace cvt {
 namespace {

@@ -5,11 +5,11 @@
 #include <algorithm>
 #include <cmath>
 
-#include "mesh_generation.h"
+#include "meshing/mesh_generation.h"
 
 #include "phantoms.h"
-#include "pipeline.h"
-#include "quality.h"
+#include "pipeline/pipeline.h"
+#include "evaluate/quality.h"
 
 using namespace cvt;
 

@@ -13,8 +13,8 @@
 #include <fstream>
 #include <sstream>
 
-#include "errors.h"
-#include "mesh_io.h"
+#include "base/errors.h"
+#include "io/mesh_io.h"
 
 using namespace cvt;
 namespace fs = std::filesystem;

@@ -15,15 +15,15 @@
 #include <nlohmann/json.hpp>
 #include <random>
 
-#include "errors.h"
-#include "fidelity.h"
-#include "image_io.h"
-#include "mesh_io.h"
-#include "mesh_optimization.h"
-#include "mesh_optimization_work.h"
+#include "base/errors.h"
+#include "evaluate/fidelity.h"
+#include "io/image_io.h"
+#include "io/mesh_io.h"
+#include "optimize/mesh_optimization.h"
+#include "optimize/mesh_optimization_work.h"
 #include "phantoms.h"
-#include "pipeline.h"
-#include "quality.h"
+#include "pipeline/pipeline.h"
+#include "evaluate/quality.h"
 
 using namespace cvt;
 

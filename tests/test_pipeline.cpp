@@ -3,9 +3,9 @@
 
 #include <atomic>
 
-#include "errors.h"
+#include "base/errors.h"
 #include "phantoms.h"
-#include "pipeline.h"
+#include "pipeline/pipeline.h"
 
 using namespace cvt;
 

@@ -4,10 +4,10 @@
 #include <algorithm>
 #include <cmath>
 
-#include "cleanup.h"
-#include "errors.h"
+#include "preprocess/cleanup.h"
+#include "base/errors.h"
 #include "phantoms.h"
-#include "preprocess.h"
+#include "preprocess/preprocess.h"
 
 using namespace cvt;
 

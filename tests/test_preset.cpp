@@ -6,8 +6,8 @@
 
 #include <nlohmann/json.hpp>
 
-#include "errors.h"
-#include "preset.h"
+#include "base/errors.h"
+#include "pipeline/preset.h"
 
 using namespace cvt;
 namespace fs = std::filesystem;

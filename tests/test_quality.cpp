@@ -8,10 +8,10 @@
 #include <numeric>
 #include <random>
 
-#include "errors.h"
-#include "marching_cubes.h"
+#include "base/errors.h"
+#include "fields/marching_cubes.h"
 #include "phantoms.h"
-#include "quality.h"
+#include "evaluate/quality.h"
 
 using namespace cvt;
 

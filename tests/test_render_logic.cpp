@@ -8,9 +8,9 @@
 #include "camera.h"
 #include "clip_selection.h"
 #include "colormap.h"
-#include "marching_cubes.h"
+#include "fields/marching_cubes.h"
 #include "mesh_geometry.h"
-#include "quality.h"
+#include "evaluate/quality.h"
 #include "quality_selection.h"
 #include "scene_data.h"
 

@@ -4,9 +4,9 @@
 #include <algorithm>
 #include <cmath>
 
-#include "errors.h"
+#include "base/errors.h"
 #include "phantoms.h"
-#include "surface_sampling.h"
+#include "sampling/surface_sampling.h"
 
 using namespace cvt;
 

@@ -7,7 +7,7 @@
 #include <filesystem>
 
 #include "input_actions.h"
-#include "mesh_io.h"
+#include "io/mesh_io.h"
 #include "ui.h"
 
 namespace cvt::gui {

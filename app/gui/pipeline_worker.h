@@ -15,7 +15,7 @@
 #include <string>
 #include <thread>
 
-#include "pipeline.h"
+#include "pipeline/pipeline.h"
 #include "scene_data.h"
 
 namespace cvt::gui {

@@ -5,7 +5,7 @@
 #include <filesystem>
 #include <fstream>
 
-#include "preset.h"
+#include "pipeline/preset.h"
 
 namespace cvt::gui {
 

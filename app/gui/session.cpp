@@ -1,8 +1,8 @@
 #include "session.h"
 
-#include "image_io.h"
-#include "mesh_io.h"
-#include "preset.h"
+#include "io/image_io.h"
+#include "io/mesh_io.h"
+#include "pipeline/preset.h"
 
 namespace cvt::gui {
 

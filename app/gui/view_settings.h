@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-#include "quality.h"
+#include "evaluate/quality.h"
 #include "quality_selection.h"
 #include "scene_data.h"
 #include "slice_image.h"

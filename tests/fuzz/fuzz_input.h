@@ -11,7 +11,7 @@
 #include <filesystem>
 #include <string>
 
-#include "errors.h"
+#include "base/errors.h"
 
 namespace cvt::fuzz {
 

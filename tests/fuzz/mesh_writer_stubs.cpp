@@ -3,7 +3,7 @@
 // its writers so that mesh_io.cpp links; reaching one is a bug in a fuzz target.
 #include <stdexcept>
 
-#include "mesh_io.h"
+#include "io/mesh_io.h"
 
 namespace cvt::detail {
 namespace {

@@ -1,0 +1,664 @@
+#include "meshing/mesh_generation.h"
+
+#include <algorithm>
+#include <cassert>
+#include <cmath>
+#include <numeric>
+#include <tuple>
+#include <unordered_map>
+
+#include <tbb/task_group.h>
+
+#include <CGAL/Delaunay_triangulation_3.h>
+#include <CGAL/Delaunay_triangulation_cell_base_3.h>
+#include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Spatial_sort_traits_adapter_3.h>
+#include <CGAL/property_map.h>
+#include <CGAL/spatial_sort.h>
+#include <CGAL/Triangulation_cell_base_with_info_3.h>
+#include <CGAL/Triangulation_vertex_base_with_info_3.h>
+
+#include "base/errors.h"
+#include "meshing/manifold_repair.h"
+
+namespace cvt {
+namespace {
+
+using Kernel = CGAL::Exact_predicates_inexact_constructions_kernel;
+using VertexBase = CGAL::Triangulation_vertex_base_with_info_3<int, Kernel>;
+// Cells carry their fate under rules 1–2 (CellFate), and what rules 1 and 2 alone make of
+// them, which depends only on the cell's corners: a cell that survives a pinched sample's
+// removal keeps it, so only new cells are tested again. The Delaunay base has circumcenter().
+enum class CellTest : signed char { untested, inside, pole, outside };
+struct CellInfo {
+  int fate = 0;  // a CellFate, negated while restore_enclosed marks cells
+  CellTest test = CellTest::untested;
+  signed char flat = -1;        // is_flat_tet of its corners: −1 not yet known, 0 no, 1 yes
+  std::int32_t component = -1;  // kept cells: their face-connected group, when mesh() needs it
+};
+using CellBase = CGAL::Triangulation_cell_base_with_info_3<
+    CellInfo, Kernel, CGAL::Delaunay_triangulation_cell_base_3<Kernel>>;
+using DataStructure = CGAL::Triangulation_data_structure_3<VertexBase, CellBase>;
+using Delaunay = CGAL::Delaunay_triangulation_3<Kernel, DataStructure>;
+using Point = Kernel::Point_3;
+
+enum CellFate : int { kept_cell, pole_cell, outside_cell, flat_cell };
+
+Point to_point(const Vec3& v) { return {v.x, v.y, v.z}; }
+Vec3 to_vec(const Point& p) { return {p.x(), p.y(), p.z()}; }
+
+// Inserts the points (info attached) into dt; handles (when given) receives each point's
+// vertex; a point equal to an earlier one shares its vertex, which keeps the earlier info.
+void insert_points(Delaunay& dt, const std::vector<std::pair<Point, int>>& points,
+                   const Progress& progress, std::vector<Delaunay::Vertex_handle>* handles = nullptr) {
+  // CGAL's range insertion, step for step (spatial sort, then each point from the previous
+  // one's vertex), so the triangulation is the same; but it takes ~0.3 s on the liver, so a
+  // cancel is checked every few thousand points. With distinct inputs the result is unique up
+  // to cospherical degeneracies, which CGAL resolves by symbolic perturbation (deterministic).
+  std::vector<Point> p;
+  p.reserve(points.size());
+  for (const auto& [point, info] : points) p.push_back(point);
+  std::vector<std::size_t> order(points.size());
+  std::iota(order.begin(), order.end(), std::size_t(0));
+  using SortTraits =
+      CGAL::Spatial_sort_traits_adapter_3<Kernel, CGAL::Pointer_property_map<Point>::type>;
+  CGAL::spatial_sort(order.begin(), order.end(), SortTraits(CGAL::make_property_map(p), Kernel()));
+  if (handles) handles->assign(points.size(), Delaunay::Vertex_handle());
+  Delaunay::Vertex_handle hint;
+  for (std::size_t n = 0; n < order.size(); ++n) {
+    if (n % 4096 == 0) progress.check_cancelled();
+    const std::size_t before = dt.number_of_vertices();
+    hint = dt.insert(p[order[n]], hint);
+    if (dt.number_of_vertices() > before) hint->info() = points[order[n]].second;
+    if (handles) (*handles)[order[n]] = hint;
+  }
+}
+
+Delaunay triangulate(const std::vector<std::pair<Point, int>>& points, const Progress& progress,
+                     std::vector<Delaunay::Vertex_handle>* handles = nullptr) {
+  Delaunay dt;
+  insert_points(dt, points, progress, handles);
+  return dt;
+}
+
+double bounding_diagonal(const std::vector<Vec3>& pts) {
+  Vec3 lo = pts[0], hi = pts[0];
+  for (const Vec3& p : pts)
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::min(lo[a], p[a]);
+      hi[a] = std::max(hi[a], p[a]);
+    }
+  return distance(lo, hi);
+}
+
+// Rotates t so its smallest index comes first while keeping the orientation (an even
+// permutation), so equal meshes give equal tet lists whatever order CGAL visits cells in.
+Tet canonical(Tet t) {
+  const int m = int(std::min_element(t.begin(), t.end()) - t.begin());
+  static const int even[4][4] = {{0, 1, 2, 3}, {1, 0, 3, 2}, {2, 3, 0, 1}, {3, 2, 1, 0}};
+  Tet r{t[even[m][0]], t[even[m][1]], t[even[m][2]], t[even[m][3]]};
+  // Among the 3 even rotations of the last three, put the smallest second.
+  for (int k = 0; k < 3 && !(r[1] < r[2] && r[1] < r[3]); ++k) r = {r[0], r[2], r[3], r[1]};
+  return r;
+}
+
+// A deterministic offset in [−j, j]³ from a splitmix64 hash of (seed, index).
+Vec3 jitter(int index, const MeshGenerationOptions& options) {
+  std::uint64_t x = options.seed * 0x9E3779B97F4A7C15ULL + std::uint64_t(index);
+  Vec3 out;
+  for (int a = 0; a < 3; ++a) {
+    x += 0x9E3779B97F4A7C15ULL;
+    std::uint64_t z = x;
+    z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+    z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+    z ^= z >> 31;
+    out[a] = (double(z >> 11) / double(1ULL << 53) * 2.0 - 1.0) * options.interior_jitter_mm;
+  }
+  return out;
+}
+
+// Rule 2: the centroid's occupancy decides. Large tets need only reach inside_from (one that
+// straddles a notch would expose faces deep inside); small ones must be inside (≥ 0.5), since
+// in a channel narrower than the smoothing the indicator never drops to inside_from.
+bool centroid_outside(Delaunay::Cell_handle c, const OccupancyFunction& occupancy,
+                      const MeshGenerationOptions& options) {
+  std::array<Vec3, 4> p;
+  Vec3 centroid{0, 0, 0};
+  for (int k = 0; k < 4; ++k) centroid += p[k] = to_vec(c->vertex(k)->point());
+  double longest2 = 0;
+  for (int a = 0; a < 4; ++a)
+    for (int b = a + 1; b < 4; ++b) longest2 = std::max(longest2, squared_distance(p[a], p[b]));
+  const bool small = longest2 < options.small_tet_edge_mm * options.small_tet_edge_mm;
+  return occupancy(centroid / 4.0) < (small ? 0.5 : options.inside_from);
+}
+
+// Rule 2 only carves what the outside reaches: cells it removed that are enclosed by kept cells
+// (not connected through removed cells to a pole's cell or the hull) are kept again, as a void
+// there would be an artefact of the centroid test, not a cavity of the object (those hold
+// exterior poles).
+void restore_enclosed(const Delaunay& dt, const std::vector<Delaunay::Cell_handle>& outside) {
+  std::vector<Delaunay::Cell_handle> reached;
+  for (Delaunay::Cell_handle c : outside)
+    for (int k = 0; k < 4; ++k) {
+      const Delaunay::Cell_handle n = c->neighbor(k);
+      if (dt.is_infinite(n) || n->info().fate == pole_cell) {
+        c->info().fate = -outside_cell;  // reached: marked by the sign until the end
+        reached.push_back(c);
+        break;
+      }
+    }
+  for (std::size_t q = 0; q < reached.size(); ++q)
+    for (int k = 0; k < 4; ++k) {
+      const Delaunay::Cell_handle n = reached[q]->neighbor(k);
+      if (!dt.is_infinite(n) && n->info().fate == outside_cell) {
+        n->info().fate = -outside_cell;
+        reached.push_back(n);
+      }
+    }
+  for (Delaunay::Cell_handle c : outside)
+    c->info().fate = c->info().fate == -outside_cell ? outside_cell : kept_cell;
+}
+
+// Faces between kept cells and the rest (removed cells or the hull), as sample indices.
+std::vector<Triangle> kept_boundary(const Delaunay& dt) {
+  std::vector<Triangle> faces;
+  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
+    if (c->info().fate != kept_cell) continue;
+    for (int k = 0; k < 4; ++k) {
+      const Delaunay::Cell_handle n = c->neighbor(k);
+      if (!dt.is_infinite(n) && n->info().fate == kept_cell) continue;
+      faces.push_back({c->vertex((k + 1) & 3)->info(), c->vertex((k + 2) & 3)->info(),
+                       c->vertex((k + 3) & 3)->info()});
+    }
+  }
+  return faces;
+}
+
+// Rule 3, last part: kept cells on the boundary that are flat (coplanar samples make
+// zero-volume slivers) go, and so do the flat cells that exposes, so the boundary is not
+// folded over them. Returns how many went.
+std::size_t peel_flat_boundary_cells(const Delaunay& dt, const std::vector<Vec3>& points) {
+  const auto on_boundary = [&](Delaunay::Cell_handle c) {
+    for (int k = 0; k < 4; ++k) {
+      const Delaunay::Cell_handle n = c->neighbor(k);
+      if (dt.is_infinite(n) || n->info().fate != kept_cell) return true;
+    }
+    return false;
+  };
+  const auto flat = [&](Delaunay::Cell_handle c) {
+    if (c->info().flat < 0) {
+      Tet t;
+      for (int k = 0; k < 4; ++k) t[k] = c->vertex(k)->info();
+      c->info().flat = is_flat_tet(points, canonical(t));
+    }
+    return c->info().flat == 1;
+  };
+  std::vector<Delaunay::Cell_handle> stack;
+  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c)
+    if (c->info().fate == kept_cell && on_boundary(c) && flat(c)) stack.push_back(c);
+  std::size_t peeled = 0;
+  while (!stack.empty()) {
+    const Delaunay::Cell_handle c = stack.back();
+    stack.pop_back();
+    if (c->info().fate != kept_cell) continue;
+    c->info().fate = flat_cell;
+    ++peeled;
+    for (int k = 0; k < 4; ++k) {
+      const Delaunay::Cell_handle n = c->neighbor(k);
+      if (!dt.is_infinite(n) && n->info().fate == kept_cell && flat(n)) stack.push_back(n);
+    }
+  }
+  return peeled;
+}
+
+// What the poles of hull samples need: B's centroid (behind every hull facet) and a distance
+// far outside B.
+struct PoleFrame {
+  Vec3 centroid{0, 0, 0};
+  double far = 0;
+};
+
+PoleFrame pole_frame(const std::vector<Vec3>& surface) {
+  PoleFrame frame;
+  for (const Vec3& p : surface) frame.centroid += p;
+  frame.centroid = frame.centroid / double(surface.size());
+  frame.far = 4.0 * bounding_diagonal(surface);
+  return frame;
+}
+
+// Appends the poles of the sample at v of Delaunay(B) (paper III-F): the farthest Voronoi
+// vertex, and the farthest on the opposite side; for a sample on the convex hull, a point far
+// out along the outward normal.
+void poles_of(const Delaunay& dt, Delaunay::Vertex_handle v, const PoleFrame& frame,
+              std::vector<Delaunay::Cell_handle>& cells, std::vector<Vec3>& poles) {
+  const Vec3 s = to_vec(v->point());
+  cells.clear();
+  dt.incident_cells(v, std::back_inserter(cells));
+  Vec3 outward{0, 0, 0};
+  bool on_hull = false;
+  double best = -1;
+  Vec3 first{};
+  for (auto c : cells) {
+    if (dt.is_infinite(c)) {
+      // The hull facet of this infinite cell; its outward normal points away from the hull.
+      on_hull = true;
+      const int inf = c->index(dt.infinite_vertex());
+      const Vec3 a = to_vec(c->vertex((inf + 1) & 3)->point()),
+                 b = to_vec(c->vertex((inf + 2) & 3)->point()),
+                 d = to_vec(c->vertex((inf + 3) & 3)->point());
+      Vec3 n = cross(b - a, d - a);
+      // The hull is convex, so the point set's centroid lies behind every hull facet.
+      if (dot(n, a - frame.centroid) < 0) n = n * -1.0;
+      outward += n;
+      continue;
+    }
+    const Vec3 centre = to_vec(dt.dual(c));
+    const double d2 = squared_distance(centre, s);
+    if (d2 > best) {
+      best = d2;
+      first = centre;
+    }
+  }
+  Vec3 direction;
+  if (on_hull) {
+    const double len = norm(outward);
+    if (len == 0) return;
+    direction = outward / len;
+    first = s + direction * frame.far;
+  } else {
+    direction = first - s;
+  }
+  poles.push_back(first);
+  // The second pole: the farthest Voronoi vertex on the other side of s.
+  double second_best = -1;
+  Vec3 second{};
+  for (auto c : cells) {
+    if (dt.is_infinite(c)) continue;
+    const Vec3 centre = to_vec(dt.dual(c));
+    if (dot(centre - s, direction) >= 0) continue;
+    const double d2 = squared_distance(centre, s);
+    if (d2 > second_best) {
+      second_best = d2;
+      second = centre;
+    }
+  }
+  if (second_best > 0) poles.push_back(second);
+}
+
+}  // namespace
+
+// What stage 5 keeps between rounds: Delaunay(B) for the poles, each sample's poles, and
+// Delaunay(B ∪ I ∪ EP) with the cells' cached rule results.
+struct DelaunayMesher::State {
+  enum class PoleKind : unsigned char { interior, exterior, near_surface };
+  struct Pole {
+    Vec3 at;
+    PoleKind kind;
+    Delaunay::Vertex_handle vertex;  // an exterior pole's vertex of dt (null if it is a sample)
+  };
+
+  OccupancyFunction occupancy;
+  MeshGenerationOptions options;
+  Progress progress;
+  std::vector<Vec3> surface, interior;  // B, and I as inserted (nudged)
+  Delaunay samples_dt;                  // Delaunay(B); vertex info: index in B
+  PoleFrame frame;
+  std::vector<std::vector<Pole>> poles;  // per sample of B
+  Delaunay dt;                           // vertex info: index in B ∪ I, or −1 for a pole
+  std::vector<Delaunay::Vertex_handle> handle;  // per sample of B ∪ I; null once deleted
+  std::unordered_map<const void*, int> pole_uses;  // samples whose exterior pole a vertex is
+  std::vector<int> pinched;  // samples rule 3 deleted since the last refine (index in B ∪ I)
+
+  std::vector<Pole> classify(const std::vector<Vec3>& at) const {
+    std::vector<Pole> out;
+    for (const Vec3& p : at) {
+      const double o = occupancy(p);
+      out.push_back({p,
+                     o >= options.inside_from          ? PoleKind::interior
+                     : o < options.pole_outside_below ? PoleKind::exterior
+                                                        : PoleKind::near_surface,
+                     {}});
+    }
+    return out;
+  }
+
+  // Poles of B's sample at vertex v of samples_dt.
+  std::vector<Pole> poles_at(Delaunay::Vertex_handle v) const {
+    std::vector<Delaunay::Cell_handle> cells;
+    std::vector<Vec3> at;
+    poles_of(samples_dt, v, frame, cells, at);
+    return classify(at);
+  }
+
+  // An exterior pole joins dt (or counts one more use of the vertex already there).
+  void insert_pole(Pole& pole) {
+    const std::size_t before = dt.number_of_vertices();
+    const Delaunay::Vertex_handle v = dt.insert(to_point(pole.at));
+    if (dt.number_of_vertices() > before) v->info() = -1;
+    if (v->info() >= 0) return;  // the point is a sample's: nothing to remove later
+    pole.vertex = v;
+    ++pole_uses[&*v];
+  }
+};
+
+DelaunayMesher::DelaunayMesher(const std::vector<Vec3>& surface,
+                               const std::vector<Vec3>& interior,
+                               const OccupancyFunction& occupancy,
+                               const MeshGenerationOptions& options, const Progress& progress)
+    : s_(std::make_unique<State>()) {
+  if (surface.size() < 4) throw InputError("mesh generation: fewer than 4 surface samples");
+  State& s = *s_;
+  s.occupancy = occupancy;
+  s.options = options;
+  s.progress = progress;
+  s.surface = surface;
+  s.interior = interior;
+  for (std::size_t i = 0; i < interior.size(); ++i) s.interior[i] += jitter(int(i), options);
+
+  // Delaunay(B ∪ I) is built on one core while the poles are found on the other; the
+  // exterior poles join it afterwards (the triangulation does not depend on the order).
+  progress("poles", 0.0);
+  const int nb = int(surface.size()), ni = int(interior.size());
+  std::vector<std::pair<Point, int>> samples;
+  samples.reserve(surface.size() + interior.size());
+  for (int i = 0; i < nb; ++i) samples.push_back({to_point(s.surface[i]), i});
+  for (int i = 0; i < ni; ++i) samples.push_back({to_point(s.interior[i]), nb + i});
+  std::vector<Delaunay::Vertex_handle> handles;
+  const Progress cancel_only{{}, progress.cancel};  // reports come from this thread only
+  tbb::task_group delaunay;
+  delaunay.run([&] { insert_points(s.dt, samples, cancel_only, &handles); });
+  try {
+    std::vector<std::pair<Point, int>> pts(samples.begin(), samples.begin() + nb);
+    s.samples_dt = triangulate(pts, progress);
+    s.frame = pole_frame(surface);
+    s.poles.resize(surface.size());
+    for (auto v = s.samples_dt.finite_vertices_begin(); v != s.samples_dt.finite_vertices_end(); ++v)
+      s.poles[v->info()] = s.poles_at(v);
+    progress("Delaunay", 0.3);
+  } catch (...) {
+    delaunay.cancel();
+    try {
+      delaunay.wait();
+    } catch (...) {
+    }
+    throw;
+  }
+  delaunay.wait();
+
+  s.handle.assign(std::size_t(nb + ni), Delaunay::Vertex_handle());
+  for (int i = 0; i < nb + ni; ++i)
+    if (handles[i]->info() == i) s.handle[i] = handles[i];  // else a duplicate of an earlier one
+  std::vector<State::Pole*> exterior;
+  std::vector<std::pair<Point, int>> pts;
+  for (auto& sample : s.poles)
+    for (State::Pole& pole : sample)
+      if (pole.kind == State::PoleKind::exterior) {
+        exterior.push_back(&pole);
+        pts.push_back({to_point(pole.at), -1});  // −1 marks a pole
+      }
+  insert_points(s.dt, pts, progress, &handles);
+  progress.check_cancelled();
+  for (std::size_t k = 0; k < exterior.size(); ++k) {
+    const Delaunay::Vertex_handle v = handles[k];
+    if (v->info() >= 0) continue;
+    exterior[k]->vertex = v;
+    ++s.pole_uses[&*v];
+  }
+}
+
+DelaunayMesher::~DelaunayMesher() = default;
+
+void DelaunayMesher::refine(const std::vector<Vec3>& new_surface,
+                            const std::vector<int>& dropped_interior,
+                            const std::vector<Vec3>& outside_points) {
+  State& s = *s_;
+  const int nb = int(s.surface.size()), ni = int(s.interior.size()), na = int(new_surface.size());
+  std::vector<char> drop(std::size_t(ni), 0);
+  for (int d : dropped_interior) drop.at(std::size_t(d)) = 1;  // checked before any change
+  s.progress("poles", 0.0);
+  // 1. Delaunay(B) gains the new samples. Only samples whose Voronoi cell changed (the new
+  // ones and their neighbours) can have new poles.
+  for (int k = 0; k < na; ++k) {
+    const std::size_t before = s.samples_dt.number_of_vertices();
+    const Delaunay::Vertex_handle v = s.samples_dt.insert(to_point(new_surface[k]));
+    if (s.samples_dt.number_of_vertices() == before) continue;  // a duplicate: no new cell
+    v->info() = nb + k;
+  }
+  s.surface.insert(s.surface.end(), new_surface.begin(), new_surface.end());
+  s.poles.resize(std::size_t(nb + na));
+  std::vector<Delaunay::Vertex_handle> changed;
+  for (auto v = s.samples_dt.finite_vertices_begin(); v != s.samples_dt.finite_vertices_end(); ++v)
+    if (v->info() >= nb) {
+      changed.push_back(v);
+      s.samples_dt.finite_adjacent_vertices(v, std::back_inserter(changed));
+    }
+  std::sort(changed.begin(), changed.end(),
+            [](auto a, auto b) { return a->info() < b->info(); });
+  changed.erase(std::unique(changed.begin(), changed.end()), changed.end());
+
+  // 2. Their exterior poles in dt are replaced: new ones in first, so a pole that stays (a
+  // Voronoi vertex the change did not touch) is never removed and inserted again.
+  std::vector<std::vector<State::Pole>> old(changed.size());
+  for (std::size_t n = 0; n < changed.size(); ++n) {
+    std::vector<State::Pole>& poles = s.poles[changed[n]->info()];
+    old[n] = std::move(poles);
+    poles = s.poles_at(changed[n]);
+    for (State::Pole& pole : poles)
+      if (pole.kind == State::PoleKind::exterior) s.insert_pole(pole);
+  }
+  for (const auto& poles : old)
+    for (const State::Pole& pole : poles)
+      if (pole.vertex != Delaunay::Vertex_handle()) {
+        const auto uses = s.pole_uses.find(&*pole.vertex);
+        assert(uses != s.pole_uses.end() && uses->second > 0);
+        if (--uses->second > 0) continue;
+        s.pole_uses.erase(uses);
+        s.dt.remove(pole.vertex);
+      }
+  s.progress.check_cancelled();
+
+  // 3. dt: B grows by the new samples, I loses the dropped ones; indices follow. Samples
+  // rule 3 deleted come back, as the new samples may have resolved their pinch.
+  s.progress("Delaunay", 0.3);
+  for (int v : s.pinched) {
+    if (v >= nb && drop[v - nb]) continue;
+    const std::size_t before = s.dt.number_of_vertices();
+    const Delaunay::Vertex_handle h = s.dt.insert(to_point(v < nb ? s.surface[v] : s.interior[v - nb]));
+    if (s.dt.number_of_vertices() > before) s.handle[v] = h;
+  }
+  s.pinched.clear();
+  std::vector<Delaunay::Vertex_handle> handle(s.handle.begin(), s.handle.begin() + nb);
+  handle.resize(std::size_t(nb + na));  // the new samples' handles follow below
+  std::vector<Vec3> interior;
+  for (int i = 0; i < ni; ++i) {
+    const Delaunay::Vertex_handle v = s.handle[std::size_t(nb + i)];
+    if (drop[i]) {
+      if (v != Delaunay::Vertex_handle()) s.dt.remove(v);
+      continue;
+    }
+    interior.push_back(s.interior[i]);
+    handle.push_back(v);
+  }
+  for (int k = 0; k < na; ++k) {
+    const std::size_t before = s.dt.number_of_vertices();
+    const Delaunay::Vertex_handle v = s.dt.insert(to_point(new_surface[k]));
+    if (s.dt.number_of_vertices() > before) handle[std::size_t(nb + k)] = v;
+  }
+  for (std::size_t i = 0; i < handle.size(); ++i)
+    if (handle[i] != Delaunay::Vertex_handle()) handle[i]->info() = int(i);
+  s.handle = std::move(handle);
+  s.interior = std::move(interior);
+  s.options.outside_points.insert(s.options.outside_points.end(), outside_points.begin(),
+                                  outside_points.end());
+}
+
+MeshGenerationResult DelaunayMesher::mesh() {
+  State& s = *s_;
+  const MeshGenerationOptions& options = s.options;
+  const Progress& progress = s.progress;
+  Delaunay& dt = s.dt;
+  const int nb = int(s.surface.size()), ni = int(s.interior.size());
+  MeshGenerationResult out;
+  for (const auto& sample : s.poles)
+    for (const State::Pole& pole : sample) {
+      if (pole.kind == State::PoleKind::exterior) out.exterior_poles.push_back(pole.at);
+      if (pole.kind == State::PoleKind::interior) out.interior_poles.push_back(pole.at);
+      if (pole.kind == State::PoleKind::near_surface) ++out.near_surface_poles;
+    }
+
+  // Rules 1 and 2 select the tets; where the result pinches (the boundary is not a disc around
+  // a sample), that sample is deleted from the triangulation and the selection redone.
+  std::vector<Vec3> points(s.surface);
+  points.insert(points.end(), s.interior.begin(), s.interior.end());
+  bool pinch_free = false;
+  for (int pass = 0;; ++pass) {
+    progress(pass == 0 ? "pole removal" : "pinch removal", 0.7);
+    out.delaunay_tets = out.removed_by_poles = 0;
+    std::vector<Delaunay::Cell_handle> outside;
+    for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
+      ++out.delaunay_tets;
+      CellInfo& info = c->info();
+      if (info.test == CellTest::untested) {
+        info.test = CellTest::inside;
+        for (int k = 0; k < 4; ++k)
+          if (c->vertex(k)->info() < 0) info.test = CellTest::pole;
+        if (info.test == CellTest::inside && options.remove_outside_tets &&
+            centroid_outside(c, s.occupancy, options))
+          info.test = CellTest::outside;
+      }
+      info.fate = info.test == CellTest::pole      ? pole_cell
+                  : info.test == CellTest::outside ? outside_cell
+                                                   : kept_cell;
+      if (info.fate == pole_cell) ++out.removed_by_poles;
+      if (info.fate == outside_cell) outside.push_back(c);
+    }
+    if (options.remove_outside_tets)
+      for (const Vec3& p : options.outside_points) {
+        const Delaunay::Cell_handle c = dt.locate(to_point(p));
+        if (dt.is_infinite(c) || c->info().fate != kept_cell) continue;
+        c->info().fate = outside_cell;
+        outside.push_back(c);
+      }
+    restore_enclosed(dt, outside);
+    out.repair.flat_removed = 0;
+    if (!options.repair_manifold || pass >= options.max_pinch_passes) break;
+    // The boundary straight from the cells' adjacency (no tet list to sort each pass); the
+    // pinched samples come out in index order, so their removal order is deterministic.
+    std::vector<std::int32_t> pinched = pinched_vertices(std::size_t(nb + ni), kept_boundary(dt));
+    if (pinched.empty()) {
+      // Flat cells are peeled from the boundary once it no longer pinches; if that makes a
+      // pinch, its samples go too and the passes go on.
+      out.repair.flat_removed = peel_flat_boundary_cells(dt, points);
+      if (out.repair.flat_removed > 0)
+        pinched = pinched_vertices(std::size_t(nb + ni), kept_boundary(dt));
+    }
+    if (pinched.empty()) {
+      pinch_free = true;
+      break;
+    }
+    for (std::int32_t v : pinched) {
+      dt.remove(s.handle[v]);
+      s.handle[v] = Delaunay::Vertex_handle();
+      s.pinched.push_back(v);
+      out.pinched_samples.push_back(v < nb ? s.surface[v] : s.interior[v - nb]);
+    }
+  }
+  // Without pinches every boundary link is one cycle, so every boundary edge has two faces:
+  // peeling (rule 3's fallback) could only remove flat tets on the boundary, and those went
+  // in the last pass. So it is skipped, and rule 4's groups come from the cells' adjacency,
+  // not a face sort.
+  const bool peel = options.repair_manifold && !pinch_free;
+  std::int32_t groups = 0;
+  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
+    if (c->info().fate != kept_cell) continue;
+    c->info().component = -1;
+  }
+  std::vector<Delaunay::Cell_handle> queue;
+  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end() && !peel; ++c) {
+    if (c->info().fate != kept_cell || c->info().component >= 0) continue;
+    c->info().component = groups;
+    queue.assign(1, c);
+    while (!queue.empty()) {
+      const Delaunay::Cell_handle q = queue.back();
+      queue.pop_back();
+      for (int k = 0; k < 4; ++k) {
+        const Delaunay::Cell_handle n = q->neighbor(k);
+        if (!dt.is_infinite(n) && n->info().fate == kept_cell) {
+          if (n->info().component < 0) {
+            n->info().component = groups;
+            queue.push_back(n);
+          }
+        }
+      }
+    }
+    ++groups;
+  }
+  std::vector<std::pair<Tet, std::int32_t>> kept;  // indices into B ∪ I, and the group
+  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
+    if (c->info().fate == pole_cell) continue;
+    std::array<Vec3, 4> corners;
+    Tet t;
+    for (int k = 0; k < 4; ++k) {
+      t[k] = c->vertex(k)->info();
+      corners[k] = to_vec(c->vertex(k)->point());
+    }
+    if (c->info().fate == outside_cell) {
+      ++out.removed_by_centroid;
+      out.removed_outside.push_back(corners);
+    } else if (c->info().fate == flat_cell) {
+      out.removed_by_repair.push_back(corners);
+    } else {
+      kept.push_back({canonical(t), c->info().component});
+    }
+  }
+  // CGAL's vertex removal orders its work by handle address, which varies from run to run;
+  // a canonical order keeps the repair step (order-dependent) deterministic.
+  std::sort(kept.begin(), kept.end());
+  std::vector<Tet> tets(kept.size());
+  std::vector<std::int32_t> group(kept.size());
+  for (std::size_t t = 0; t < kept.size(); ++t) std::tie(tets[t], group[t]) = kept[t];
+  kept = {};
+
+  progress("manifold repair", 0.9);
+  if (peel) {
+    const std::size_t flat = out.repair.flat_removed;
+    out.repair = repair_boundary_manifold(points, tets, &out.removed_by_repair);
+    out.repair.flat_removed += flat;
+    out.removed_small_components = remove_small_tet_components(
+        points, tets, options.min_component_fraction, &out.removed_by_repair);
+  } else {
+    out.repair.manifold = options.repair_manifold;  // what a peeling pass would have found
+    out.removed_small_components = remove_small_tet_components(
+        points, tets, group, options.min_component_fraction, &out.removed_by_repair);
+  }
+
+  // Keep only referenced samples, in input order (B first, then I), for a deterministic mesh.
+  std::vector<int> new_index(std::size_t(nb + ni), -1);
+  for (const Tet& t : tets)
+    for (int v : t) new_index[v] = 0;
+  for (int v = 0; v < nb + ni; ++v) {
+    if (new_index[v] < 0) {
+      ++out.unused_samples;
+      continue;
+    }
+    new_index[v] = int(out.mesh.vertices.size());
+    out.mesh.vertices.push_back(points[v]);
+    out.vertex_source.push_back(v);
+  }
+  out.mesh.tets.reserve(tets.size());
+  for (const Tet& t : tets)
+    out.mesh.tets.push_back(canonical({new_index[t[0]], new_index[t[1]], new_index[t[2]], new_index[t[3]]}));
+  std::sort(out.mesh.tets.begin(), out.mesh.tets.end());
+  progress("mesh", 1.0);
+  return out;
+}
+
+MeshGenerationResult build_delaunay_mesh(const std::vector<Vec3>& surface,
+                                         const std::vector<Vec3>& interior,
+                                         const OccupancyFunction& occupancy,
+                                         const MeshGenerationOptions& options,
+                                         const Progress& progress) {
+  return DelaunayMesher(surface, interior, occupancy, options, progress).mesh();
+}
+
+}  // namespace cvt

@@ -1,0 +1,153 @@
+// Stage 6 (paper IV: "apply local optimization for the worst case guarantee"): local mesh
+// improvement that removes slivers and other bad tets from the stage-5 mesh. A tet is bad when
+// a dihedral angle is below target_dihedral_deg (or above 180° minus it) or a Table I measure is
+// in its bad bin; each pass, worst tets first:
+//   1. flips: edge removal (3-2, 4-4, … the ring re-triangulated by dynamic programming), 2-3
+//      face flips, boundary edge flips where the boundary is convex (the diagonal of two
+//      boundary triangles swapped, only when the new triangles follow the segmentation surface),
+//      and removal of corner tets (a spike of one tet on the surface, with its corner vertex);
+//   2. in the first passes, for a better overall distribution, one global ODT sweep over the
+//      interior vertices (towards the volume-weighted mean of their tets' circumcentres), and
+//      flips on mediocre tets as well as bad ones;
+//   3. vertex moves that raise the worst tet of a star: interior vertices freely, boundary
+//      vertices along the sub-voxel surface (0.5 level of the smoothed indicator);
+//   4. where none of that helped (needles on tiny boundary triangles, wedges across thick parts
+//      with no vertex inside), an interior vertex is inserted (cavity + star re-triangulation).
+// A change is kept only when the worst tet it makes is better than the worst it replaces (ODT:
+// no tet turns bad, no bad tet gets worse), so the worst tet never gets worse (once no tet is
+// bad, none turns bad); new tets are
+// positively oriented and fill the region of the ones they replace, so validity and the
+// boundary's topology are kept. Input vertices keep their order (only removed corners leave
+// gaps, see OptimizationResult::vertex_origin); inserted ones are appended. Deterministic: the same
+// mesh and options give the same result, whatever the thread count.
+#pragma once
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+#include <nlohmann/json_fwd.hpp>
+#include <string>
+#include <vector>
+
+#include "optimize/optimization_options.h"
+#include "base/progress.h"
+#include "base/tet_mesh.h"
+#include "base/volume.h"
+
+namespace cvt {
+
+namespace opt {
+class WorkMesh;
+class LevelSetSurface;
+}  // namespace opt
+
+
+// Figures of the mesh after one pass (or before the first).
+struct PassStats {
+  int pass = 0;       // 0: before optimisation
+  double wall_s = 0;  // time of this pass (statistics not included)
+  double flips_s = 0, odt_s = 0, smoothing_s = 0, insertion_s = 0;  // … of which each phase
+  double cpu_s = 0;  // process CPU time of the pass (all threads)
+  std::size_t tets = 0;
+  double min_dihedral_deg = 0, max_dihedral_deg = 0;
+  // Smallest quality the optimiser works with: the minimum over the tets of min(smallest sine of
+  // a dihedral angle / sine of target_dihedral_deg, each Table I measure / its bad-bin edge);
+  // a tet is bad below 1. While below 1 it never decreases from pass to pass; once above, it
+  // stays above.
+  double min_quality = 0;
+  // When has_statistics (every pass with pass statistics, else the first and last):
+  std::size_t below_5 = 0, below_10 = 0, below_15 = 0, below_20 = 0;  // min dihedral below (°)
+  std::array<std::array<double, 3>, 3> bins_percent{};  // Table I bins, kShewchukMeasures order
+  bool has_statistics = false;  // the figures above and the dihedral range were computed
+  // What the pass did.
+  std::size_t edge_removals = 0, face_flips = 0, boundary_flips = 0;
+  std::size_t corner_removals = 0;  // corner tets removed with their corner vertex
+  std::size_t odt_moved = 0;        // interior vertices moved by the ODT sweep
+  std::size_t moved_interior = 0, moved_surface = 0;  // … and to raise a bad tet
+  std::size_t inserted = 0;                           // interior vertices inserted
+  std::size_t vertices = 0;                           // after the pass
+};
+
+struct OptimizationResult {
+  std::vector<PassStats> history;  // [0]: the input mesh, then one entry per pass
+  double wall_s = 0;               // total optimisation time (statistics not included) …
+  double setup_s = 0;              // … of which setting up (adjacency, qualities, surface)
+  double cpu_s = 0;                // … as process CPU time (all threads)
+  // Largest distance (mm) from a boundary vertex that may slide to the 0.5 level set, before
+  // and after; boundary vertices off the surface (they stay fixed) are counted apart.
+  double surface_distance_before_mm = 0, surface_distance_after_mm = 0;
+  std::size_t sliding_vertices = 0, fixed_boundary_vertices = 0;
+  double fixed_boundary_distance_mm = 0;  // largest distance of a fixed boundary vertex
+  // Boundary flips and corner removals: the largest height of a tet cut off (how far the
+  // boundary moved), and the largest distance of a new boundary triangle's centroid to the
+  // surface.
+  double max_boundary_shift_mm = 0;
+  double max_flip_face_distance_mm = 0;
+  std::size_t boundary_flips = 0;
+  std::size_t corner_removals = 0;    // corner tets (three boundary faces around a vertex with
+                                      // no other tet) removed with that vertex
+  std::size_t inserted_vertices = 0;  // interior vertices inserted
+  // For each vertex of the optimised mesh, the input vertex it is (−1: inserted). Input
+  // vertices keep their order; only corners removed leave gaps. (Filled by optimize_mesh;
+  // MeshOptimizer::mesh gives it too.)
+  std::vector<std::int32_t> vertex_origin;
+};
+
+// Steps the optimisation pass by pass (for the viewer); optimize_mesh runs it to the end.
+class MeshOptimizer {
+ public:
+  // `indicator` (may be null: boundary vertices then stay fixed) is the smoothed indicator
+  // whose 0.5 level is the segmentation's surface; it must outlive the optimiser. Throws
+  // InputError for bad options or a mesh with a missing vertex or a tet not positively oriented.
+  // With pass_statistics, Table I bins and dihedral figures after every pass, for a viewer's
+  // history (~0.1 s per pass on the liver, not counted in the timings); without, only before
+  // the first pass and after the last (the others get the counts and min_quality).
+  MeshOptimizer(const TetMesh& mesh, const Volume<float>* indicator,
+                const OptimizationOptions& options = {}, bool pass_statistics = false);
+  ~MeshOptimizer();
+  MeshOptimizer(const MeshOptimizer&) = delete;
+  MeshOptimizer& operator=(const MeshOptimizer&) = delete;
+
+  // Runs one pass; returns false (and does nothing) once finished.
+  bool step(const Progress& progress = {});
+  // Runs the remaining passes; returns how many ran.
+  int run(const Progress& progress = {});
+  bool finished() const { return finished_; }
+  int passes() const { return int(result_.history.size()) - 1; }
+
+  const std::vector<PassStats>& history() const { return result_.history; }
+  // The current mesh; `origin` (if given) receives, for each of its vertices, the input vertex
+  // it is (−1: inserted).
+  TetMesh mesh(std::vector<std::int32_t>* origin = nullptr) const;
+  // The result so far (measures the boundary vertices' distance to the surface now).
+  OptimizationResult result() const;
+
+ private:
+  PassStats statistics(int pass, bool full) const;
+
+  OptimizationOptions options_;
+  bool pass_statistics_ = false;
+  std::unique_ptr<opt::WorkMesh> work_;
+  std::unique_ptr<opt::LevelSetSurface> surface_;
+  OptimizationResult result_;
+  std::int32_t input_vertices_ = 0;
+  bool finished_ = false;
+};
+
+// Optimises `mesh` in place.
+OptimizationResult optimize_mesh(TetMesh& mesh, const Volume<float>* indicator,
+                                 const OptimizationOptions& options = {},
+                                 const Progress& progress = {});
+
+// {"wall_s","setup_s","cpu_s","surface_distance_before_mm","surface_distance_after_mm",
+//  "sliding_vertices","fixed_boundary_vertices","fixed_boundary_distance_mm",
+//  "max_boundary_shift_mm","max_flip_face_distance_mm","boundary_flips","corner_removals",
+//  "inserted_vertices",
+//  "passes":[{"pass","wall_s","cpu_s","flips_s","odt_s","smoothing_s","insertion_s","tets","vertices",
+//  "min_quality","edge_removals","face_flips","boundary_flips","corner_removals","odt_moved","moved_interior","moved_surface",
+//  "inserted", with statistics: "min_dihedral_deg","max_dihedral_deg","below_deg":{"5","10",
+//  "15","20"},"bins_percent":{measure key: [3]}}]}
+nlohmann::json to_json(const OptimizationResult& result);
+
+}  // namespace cvt

@@ -1,0 +1,87 @@
+#include "pipeline/run_report.h"
+
+#include <nlohmann/json.hpp>
+
+#include "base/memory.h"
+#include "optimize/mesh_optimization.h"
+#include "pipeline/preset.h"
+
+namespace cvt {
+
+nlohmann::json run_report(const Pipeline& pipe) {
+  using nlohmann::json;
+  json j;
+  j["parameters"] = to_json(pipe.parameters());
+  json stages = json::array();
+  for (const StageRecord& r : pipe.records())
+    stages.push_back({{"name", r.name}, {"wall_s", r.wall_s}, {"peak_rss_mb", r.peak_rss_mb}});
+  j["stages"] = stages;
+  j["peak_rss_mb"] = double(peak_rss_bytes()) / (1024.0 * 1024.0);
+  if (const PreprocessResult* pre = pipe.preprocess()) {
+    json steps = json::array();
+    for (const StepTime& s : pre->steps) steps.push_back({{"name", s.name}, {"wall_s", s.wall_s}});
+    j["preprocess"] = {{"steps", steps},
+                       {"crop_dims", pre->object.grid.dims},
+                       {"boundary_voxels", pre->boundary.size()},
+                       {"smoothing_sigma_mm", pre->smoothing_sigma_mm},
+                       {"medial_min_separation_mm", pre->medial_min_separation_mm},
+                       {"lfs_min_mm", pre->lfs_bounds.min_mm},
+                       {"lfs_max_mm", pre->lfs_bounds.max_mm},
+                       {"components", pre->cleanup.components},
+                       {"components_removed", pre->cleanup.components_removed},
+                       {"cavities_filled", pre->cleanup.cavities_filled}};
+  }
+  if (const LloydStepper* lloyd = pipe.lloyd()) {
+    json its = json::array();
+    for (const IterationStats& s : lloyd->history())
+      its.push_back({{"energy", s.energy},
+                     {"displacement_sum_mm", s.displacement_sum_mm},
+                     {"displacement_mean_mm", s.displacement_mean_mm},
+                     {"displacement_max_mm", s.displacement_max_mm},
+                     {"wall_s", s.wall_s}});
+    const CvtResolved& r = lloyd->resolved();
+    j["lloyd"] = {{"iterations", its},
+                  {"converged", lloyd->converged()},
+                  {"sites", r.sites},
+                  {"spacing_mm", r.spacing_mm},
+                  {"sigma_density_mm", r.sigma_density_mm},
+                  {"epsilon_mm", r.epsilon_mm}};
+  }
+  json counts = json::object();
+  if (const SurfaceSamples* s = pipe.surface()) counts["surface_samples"] = s->world.size();
+  if (const LloydStepper* l = pipe.lloyd()) counts["interior_samples"] = l->sites_world().size();
+  if (const ShallowResult* s = pipe.shallow()) counts["shallow_removed"] = s->removed_world.size();
+  if (const MeshGenerationResult* m = pipe.mesh()) {
+    counts["exterior_poles"] = m->exterior_poles.size();
+    counts["interior_poles"] = m->interior_poles.size();
+    counts["near_surface_poles"] = m->near_surface_poles;
+    counts["vertices"] = m->mesh.vertices.size();
+    counts["tets"] = m->mesh.tets.size();
+    counts["delaunay_tets"] = m->delaunay_tets;
+    counts["removed_by_poles"] = m->removed_by_poles;
+    counts["removed_by_centroid"] = m->removed_by_centroid;
+    counts["unused_samples"] = m->unused_samples;
+    counts["pinched_samples_removed"] = m->pinched_samples.size();
+    counts["removed_by_repair"] = m->removed_by_repair.size();
+    counts["removed_small_components"] = m->removed_small_components;
+    counts["repair_passes"] = m->repair.passes;
+    counts["flat_removed"] = m->repair.flat_removed;
+    counts["refinement_added_samples"] = m->added_surface_samples.size();
+    counts["refinement_dropped_interior"] = m->dropped_interior_samples.size();
+    json rounds = json::array();
+    for (const FidelityRefinementRound& r : m->refinement)
+      rounds.push_back({{"disagreeing_voxels", r.disagreeing_voxels},
+                        {"deep_boundary_samples", r.deep_boundary_samples},
+                        {"added_samples", r.added_samples},
+                        {"dropped_interior", r.dropped_interior},
+                        {"accepted", r.accepted}});
+    j["refinement"] = rounds;
+  }
+  j["counts"] = counts;
+  if (const OptimizationResult* o = pipe.optimization()) j["optimization"] = to_json(*o);
+  if (const QualityReport* q = pipe.quality()) j["quality"] = to_json(*q);
+  if (const FidelityReport* f = pipe.fidelity()) j["fidelity"] = to_json(*f);
+  return j;
+}
+
+}  // namespace cvt

@@ -1,0 +1,26 @@
+// Local feature size: the distance (mm) from every voxel to the nearest medial-axis voxel,
+// inner or outer, clamped to [min, max] because lfs collapses in thin parts and is unbounded
+// where the medial axis is far away.
+#pragma once
+
+#include "base/progress.h"
+#include "base/volume.h"
+
+namespace cvt {
+
+struct LfsOptions {
+  double min_mm = 0;  // lower clamp (mm); 0 = auto: the largest voxel spacing
+  double max_mm = 0;  // upper clamp (mm); 0 = auto: 10 × the largest voxel spacing, so
+                      // broad, flat parts are still sampled every few voxels
+};
+
+struct LfsBounds {
+  double min_mm, max_mm;
+};
+LfsBounds effective_lfs_bounds(const LfsOptions& options, const Mask& object);
+
+// medial_axis: non-zero on medial-axis voxels (compute_medial_axis).
+Volume<float> compute_local_feature_size(const Mask& medial_axis, const LfsBounds& bounds,
+                                         const Progress& progress = {});
+
+}  // namespace cvt

@@ -1,0 +1,126 @@
+#include "preprocess/preprocess.h"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+#include <tbb/parallel_for.h>
+
+#include "fields/distance_transform.h"
+#include "base/errors.h"
+#include "base/memory.h"
+#include "fields/smoothing.h"
+
+namespace cvt {
+
+double effective_smoothing_sigma_mm(double sigma_mm, const Grid& grid) {
+  if (sigma_mm > 0) return sigma_mm;
+  return 0.5 * std::max({grid.spacing.x, grid.spacing.y, grid.spacing.z});
+}
+
+std::vector<std::int32_t> boundary_voxels(const Mask& object) {
+  const Grid& g = object.grid;
+  std::vector<std::int32_t> out;
+  for (int k = 0; k < g.dims[2]; ++k)
+    for (int j = 0; j < g.dims[1]; ++j)
+      for (int i = 0; i < g.dims[0]; ++i) {
+        if (!object.at(i, j, k)) continue;
+        const bool border = i == 0 || j == 0 || k == 0 || i == g.dims[0] - 1 ||
+                            j == g.dims[1] - 1 || k == g.dims[2] - 1;
+        if (border || !object.at(i - 1, j, k) || !object.at(i + 1, j, k) ||
+            !object.at(i, j - 1, k) || !object.at(i, j + 1, k) || !object.at(i, j, k - 1) ||
+            !object.at(i, j, k + 1))
+          out.push_back(std::int32_t(g.linear(i, j, k)));
+      }
+  return out;
+}
+
+namespace {
+
+// Distance and nearest voxel of the other phase, for both phases, in one pair of volumes: the
+// inner transform (features = background) for object voxels, the outer one for background.
+void distance_to_other_phase(const Mask& object, Volume<float>& distance_mm,
+                             Volume<std::int32_t>& nearest, const Progress& progress) {
+  Mask background(object.grid, 0);
+  for (std::size_t v = 0; v < object.size(); ++v) background.data[v] = !object.data[v];
+  FeatureTransform inner = compute_feature_transform(background, true, progress);
+  background = Mask();
+  distance_mm = std::move(inner.squared_distance_mm2);
+  nearest = std::move(inner.nearest);
+  FeatureTransform outer = compute_feature_transform(object, true, progress);
+  tbb::parallel_for(std::size_t(0), object.size(), [&](std::size_t v) {
+    if (!object.data[v]) {
+      distance_mm.data[v] = outer.squared_distance_mm2.data[v];
+      nearest.data[v] = outer.nearest.data[v];
+    }
+    distance_mm.data[v] = std::sqrt(distance_mm.data[v]);
+  });
+}
+
+class StepTimer {
+ public:
+  StepTimer(std::vector<StepTime>& steps, const Progress& progress, const char* name)
+      : steps_(steps), name_(name), start_(std::chrono::steady_clock::now()) {
+    progress(name, 0.0);
+  }
+  ~StepTimer() {
+    const std::chrono::duration<double> d = std::chrono::steady_clock::now() - start_;
+    steps_.push_back({name_, d.count()});
+  }
+
+ private:
+  std::vector<StepTime>& steps_;
+  std::string name_;
+  std::chrono::steady_clock::time_point start_;
+};
+
+}  // namespace
+
+PreprocessResult preprocess(const Image& image, const PreprocessOptions& options,
+                            const Progress& progress) {
+  PreprocessResult r;
+  {
+    StepTimer t(r.steps, progress, "select object");
+    r.object = select_object(image, options.selection);
+    // Stage 1 keeps ~22 bytes per crop voxel (mask, indicator, distance, feature transform,
+    // medial axis, lfs) and needs ~16 more while a feature transform runs.
+    require_memory(r.object.size() * 38, options.max_bytes,
+                   image.source + ": the object's crop (" + std::to_string(r.object.size()) +
+                       " voxels)");
+  }
+  {
+    StepTimer t(r.steps, progress, "clean up");
+    r.cleanup = clean_object(r.object, options.cleanup);
+    if (std::find(r.object.data.begin(), r.object.data.end(), 1) == r.object.data.end())
+      throw InputError(image.source + ": nothing is left of " + describe(options.selection) +
+                       " after clean-up");
+  }
+  const Grid& g = r.object.grid;
+  {
+    StepTimer t(r.steps, progress, "smoothed indicator");
+    r.smoothing_sigma_mm = effective_smoothing_sigma_mm(options.smoothing_sigma_mm, g);
+    r.indicator = smooth_indicator(r.object, r.smoothing_sigma_mm, progress);
+  }
+  {
+    StepTimer t(r.steps, progress, "distance transform");
+    distance_to_other_phase(r.object, r.distance_mm, r.nearest_opposite, progress);
+  }
+  {
+    StepTimer t(r.steps, progress, "medial axis");
+    r.medial_min_separation_mm = effective_min_separation_mm(options.medial_axis, g);
+    r.medial_axis =
+        compute_medial_axis(r.object, r.nearest_opposite, options.medial_axis, progress);
+  }
+  {
+    StepTimer t(r.steps, progress, "local feature size");
+    r.lfs_bounds = effective_lfs_bounds(options.lfs, r.object);
+    r.lfs_mm = compute_local_feature_size(r.medial_axis, r.lfs_bounds, progress);
+  }
+  {
+    StepTimer t(r.steps, progress, "boundary voxels");
+    r.boundary = boundary_voxels(r.object);
+  }
+  return r;
+}
+
+}  // namespace cvt

@@ -1,0 +1,164 @@
+#include "sampling/surface_sampling.h"
+
+#include <algorithm>
+#include <cmath>
+#include <queue>
+
+#include "base/errors.h"
+#include "fields/smoothing.h"
+
+namespace cvt {
+namespace {
+
+// Boundary voxels bucketed into cubic cells (CSR layout) for the "all q with d(p,q) < R" query.
+class PointGrid {
+ public:
+  PointGrid(const std::vector<Vec3>& points, double cell_mm) : points_(points), cell_(cell_mm) {
+    lo_ = points.empty() ? Vec3{} : points[0];
+    Vec3 hi = lo_;
+    for (const Vec3& p : points)
+      for (int a = 0; a < 3; ++a) {
+        lo_[a] = std::min(lo_[a], p[a]);
+        hi[a] = std::max(hi[a], p[a]);
+      }
+    for (int a = 0; a < 3; ++a) n_[a] = int((hi[a] - lo_[a]) / cell_) + 1;
+    start_.assign(std::size_t(n_[0]) * n_[1] * n_[2] + 1, 0);
+    for (const Vec3& p : points) ++start_[cell_of(p) + 1];
+    for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
+    items_.resize(points.size());
+    std::vector<std::size_t> fill(start_.begin(), start_.end() - 1);
+    for (std::size_t i = 0; i < points.size(); ++i) items_[fill[cell_of(points[i])]++] = int(i);
+  }
+
+  // Calls f(index, squared distance) for every point strictly within `radius` of `c`.
+  template <class F>
+  void for_each_within(const Vec3& c, double radius, F&& f) const {
+    int lo[3], hi[3];
+    for (int a = 0; a < 3; ++a) {
+      lo[a] = std::max(0, int(std::floor((c[a] - radius - lo_[a]) / cell_)));
+      hi[a] = std::min(n_[a] - 1, int(std::floor((c[a] + radius - lo_[a]) / cell_)));
+    }
+    const double r2 = radius * radius;
+    for (int z = lo[2]; z <= hi[2]; ++z)
+      for (int y = lo[1]; y <= hi[1]; ++y)
+        for (int x = lo[0]; x <= hi[0]; ++x) {
+          const std::size_t cell = (std::size_t(z) * n_[1] + y) * n_[0] + x;
+          for (std::size_t s = start_[cell]; s < start_[cell + 1]; ++s) {
+            const int q = items_[s];
+            const double d2 = squared_distance(points_[q], c);
+            if (d2 < r2) f(q, d2);
+          }
+        }
+  }
+
+ private:
+  std::size_t cell_of(const Vec3& p) const {
+    int c[3];
+    for (int a = 0; a < 3; ++a) c[a] = std::clamp(int((p[a] - lo_[a]) / cell_), 0, n_[a] - 1);
+    return (std::size_t(c[2]) * n_[1] + c[1]) * n_[0] + c[0];
+  }
+  const std::vector<Vec3>& points_;
+  double cell_;
+  Vec3 lo_;
+  int n_[3];
+  std::vector<std::size_t> start_;
+  std::vector<int> items_;
+};
+
+}  // namespace
+
+bool project_to_level_set(const Volume<float>& field, float level, Vec3& index,
+                          double max_move_voxels) {
+  const Grid& g = field.grid;
+  const double max_spacing = std::max({g.spacing.x, g.spacing.y, g.spacing.z});
+  const double max_move_mm = max_move_voxels * max_spacing;
+  const double max_step_mm = 0.5 * std::min({g.spacing.x, g.spacing.y, g.spacing.z});
+  Vec3 x = index;
+  for (int iteration = 0; iteration < 30; ++iteration) {
+    const double f = double(sample_trilinear(field, x)) - level;
+    if (std::abs(f) < 1e-4) break;
+    const Vec3 grad = gradient_local(field, x);  // per mm
+    const double g2 = squared_norm(grad);
+    if (g2 < 1e-12) return false;
+    // Newton step in mm along the gradient, damped to half a voxel (a far-off start would
+    // otherwise overshoot), converted back to index units.
+    Vec3 step_mm = grad * (-f / g2);
+    const double len = norm(step_mm);
+    if (len > max_step_mm) step_mm = step_mm * (max_step_mm / len);
+    for (int a = 0; a < 3; ++a) x[a] += step_mm[a] / g.spacing[a];
+    if (norm(g.index_to_local(x - index)) > max_move_mm) return false;
+  }
+  if (std::abs(double(sample_trilinear(field, x)) - level) > 1e-3) return false;
+  index = x;
+  return true;
+}
+
+SurfaceSamples sample_surface(const PreprocessResult& pre, const SurfaceSamplingOptions& options,
+                              const Progress& progress) {
+  if (!(options.r > 0 && options.r < 1)) throw InputError("--r: must be in (0, 1)");
+  if (!(options.sigma_mm > 0)) throw InputError("--sigma-surface: must be > 0 mm");
+  const Grid& grid = pre.object.grid;
+  const std::vector<std::int32_t>& F = pre.boundary;
+  const std::size_t n = F.size();
+  std::vector<Vec3> pos(n);
+  std::vector<double> lfs(n);
+  for (std::size_t i = 0; i < n; ++i) {
+    const auto c = grid.ijk(std::size_t(F[i]));
+    pos[i] = grid.index_to_local({double(c[0]), double(c[1]), double(c[2])});
+    lfs[i] = pre.lfs_mm.data[F[i]];
+  }
+  const double max_spacing = std::max({grid.spacing.x, grid.spacing.y, grid.spacing.z});
+  const PointGrid points(pos, 4.0 * max_spacing);
+  const double r2 = options.r * options.r;
+  const double two_sigma2 = 2.0 * options.sigma_mm * options.sigma_mm;
+
+  // Priority = −(h² − r² lfs²): the log of the energy times 2σ², so no exp() underflows.
+  std::vector<double> h(lfs), key(n);
+  std::vector<char> in_f(n, 1);
+  using Entry = std::pair<double, int>;
+  std::priority_queue<Entry> queue;
+  for (std::size_t i = 0; i < n; ++i) {
+    key[i] = -(1.0 - r2) * lfs[i] * lfs[i];
+    queue.push({key[i], int(i)});
+  }
+  SurfaceSamples out;
+  std::size_t remaining = n;
+  while (!queue.empty()) {
+    const auto [k, p] = queue.top();
+    queue.pop();
+    if (!in_f[p] || k != key[p]) continue;  // stale entry
+    in_f[p] = 0;
+    --remaining;
+    out.voxels.push_back(F[p]);
+    out.energy.push_back(float(std::exp(k / two_sigma2)));
+    const double lfs_p2 = lfs[p] * lfs[p];
+    points.for_each_within(pos[p], lfs[p], [&](int q, double d2) {
+      if (!in_f[q]) return;
+      const double d = std::sqrt(d2);
+      h[q] = std::min(h[q], d);
+      key[q] = -(h[q] * h[q] - r2 * lfs_p2);
+      if (d < options.r * lfs[q]) {
+        in_f[q] = 0;
+        --remaining;
+      } else {
+        queue.push({key[q], q});
+      }
+    });
+    if ((out.voxels.size() & 1023) == 0) progress("surface sampling", 1.0 - double(remaining) / double(n));
+  }
+
+  out.voxel_world.reserve(out.voxels.size());
+  out.world.reserve(out.voxels.size());
+  for (std::int32_t v : out.voxels) {
+    const auto c = grid.ijk(std::size_t(v));
+    Vec3 index{double(c[0]), double(c[1]), double(c[2])};
+    out.voxel_world.push_back(grid.index_to_world(index));
+    if (options.project_to_surface &&
+        !project_to_level_set(pre.indicator, 0.5f, index, options.max_projection_voxels))
+      ++out.projection_failures;
+    out.world.push_back(grid.index_to_world(index));
+  }
+  return out;
+}
+
+}  // namespace cvt

@@ -1,0 +1,42 @@
+// Stage 2 (paper III-C, Algorithm 1): greedy max-energy r-sampling of the boundary voxels F.
+// energy(q) = exp(−(h²(q) − r² lfs²(p)) / 2σ²), h(q) = distance to the nearest sample so far,
+// p = the sample that last updated q. The sample with the highest energy is taken next; every
+// q with d(p, q) < r·lfs(q) is then covered and leaves F. Ends when F is empty, so every
+// boundary voxel lies within r·lfs of a sample.
+#pragma once
+
+#include <cstdint>
+#include <vector>
+
+#include "preprocess/preprocess.h"
+#include "base/progress.h"
+
+namespace cvt {
+
+struct SurfaceSamplingOptions {
+  double r = 0.4;                   // sampling ratio: samples within r·lfs of every boundary voxel
+  double sigma_mm = 2.0;            // σ of eq. (3), mm; scales energies (the order only depends
+                                    // on h² − r² lfs², so σ never changes which voxel is next)
+  bool project_to_surface = true;   // move samples onto the 0.5 level of the smoothed indicator
+  double max_projection_voxels = 1.5;  // in largest voxel spacings; a projection moving
+                                       // farther keeps the voxel centre
+};
+
+struct SurfaceSamples {
+  std::vector<std::int32_t> voxels;  // sampled boundary voxels (linear index in the object grid)
+  std::vector<Vec3> voxel_world;     // their voxel centres (world, mm)
+  std::vector<Vec3> world;           // final positions: projected when enabled (world, mm)
+  std::vector<float> energy;         // energy of each sample when it was taken (eq. 3)
+  std::size_t projection_failures = 0;  // samples left at the voxel centre
+};
+
+SurfaceSamples sample_surface(const PreprocessResult& pre, const SurfaceSamplingOptions& options,
+                              const Progress& progress = {});
+
+// Moves a point (continuous index) onto the `level` set of `field` by Newton steps along the
+// physical gradient; returns false (and leaves `index`) when it does not converge within
+// max_move_voxels × the largest voxel spacing.
+bool project_to_level_set(const Volume<float>& field, float level, Vec3& index,
+                          double max_move_voxels);
+
+}  // namespace cvt
