@@ -117,7 +117,7 @@ void run(const MeshArgs& args) {
   pipe.set_image(std::make_shared<Image>(read_image(args.image)));
   pipe.run_all(progress);
 
-  const MeshGenerationResult& m = *pipe.mesh();
+  const TetMesh& mesh = *pipe.final_mesh();
   // All outputs or none: a report or preset that fails after the mesh was written takes the
   // mesh with it, so a failed run never looks like a finished one; so does a cancel during
   // the last stage or the writing.
@@ -125,7 +125,7 @@ void run(const MeshArgs& args) {
   progress.check_cancelled();
   std::vector<std::string> written;
   try {
-    write_mesh(m.mesh, args.output, write_options(m.mesh));
+    write_mesh(mesh, args.output, write_options(mesh));
     written = mesh_files(args.output);
     if (!args.report.empty()) {
       write_file_atomically(args.report, run_report(pipe).dump(2) + "\n");
@@ -146,7 +146,7 @@ void run(const MeshArgs& args) {
     for (const StageRecord& r : pipe.records()) total += r.wall_s;
     std::fprintf(stderr,
                  "cvtmesh: %zu vertices, %zu tets -> %s (%.2f s, peak %.0f MB, %s)\n",
-                 m.mesh.vertices.size(), m.mesh.tets.size(), args.output.c_str(), total,
+                 mesh.vertices.size(), mesh.tets.size(), args.output.c_str(), total,
                  pipe.records().back().peak_rss_mb,
                  pipe.quality()->validity.valid ? "valid" : "NOT VALID");
   }

@@ -1,9 +1,10 @@
-// Binds every pipeline parameter to a CLI option; options given on the command line override
-// a preset, which overrides the defaults.
+// Binds every parameter of the registry to a CLI option (--KEY as the registry names it);
+// options given on the command line override a preset, which overrides the defaults.
 #pragma once
 
+#include <deque>
 #include <functional>
-#include <memory>
+#include <string>
 #include <vector>
 
 #include <CLI/CLI.hpp>
@@ -18,15 +19,15 @@ class ParameterOptions {
     all,     // every parameter (`mesh`)
     object,  // --preset and the object's selection and clean-up only (`quality --image`)
   };
-  // Registers --labels, --iso, --inside, --r, ... on `cmd`.
   explicit ParameterOptions(CLI::App* cmd, Scope scope = Scope::all);
   // Defaults ← preset file (if --preset) ← options given. Throws InputError on bad values.
   Parameters resolve() const;
 
  private:
-  Parameters given_;               // values CLI11 parsed into
-  std::string labels_text_ = "all", inside_text_ = "above", preset_path_;
-  double iso_ = 0;
+  Parameters given_;                // typed values CLI11 parsed into
+  std::deque<std::string> texts_;   // values parsed by the registry's words or label lists
+  std::deque<double> numbers_;      // optional numbers (iso)
+  std::string preset_path_;
   std::vector<std::pair<CLI::Option*, std::function<void(Parameters&)>>> bindings_;
 };
 

@@ -218,7 +218,7 @@ std::vector<int> interior_samples_on_boundary(const MeshGenerationResult& m,
   return out;
 }
 
-MeshGenerationResult build_refined_mesh(const PreprocessResult& pre, const std::vector<Vec3>& surface,
+RefinedMesh build_refined_mesh(const PreprocessResult& pre, const std::vector<Vec3>& surface,
                                         const std::vector<Vec3>& interior,
                                         const MeshGenerationOptions& generation,
                                         const FidelityRefinementOptions& options,
@@ -308,10 +308,12 @@ MeshGenerationResult build_refined_mesh(const PreprocessResult& pre, const std::
   // its own. (A loop that stopped early recorded that check already.)
   if (!rounds.empty() && rounds.back().accepted)
     rounds.push_back({fix.disagreeing_voxels, fix.deep_boundary.size(), 0, 0, false});
-  result.added_surface_samples = std::move(added_all);
-  result.dropped_interior_samples = std::move(dropped_all);
-  result.refinement = std::move(rounds);
-  return result;
+  RefinedMesh out;
+  static_cast<MeshGenerationResult&>(out) = std::move(result);
+  out.added_surface_samples = std::move(added_all);
+  out.dropped_interior_samples = std::move(dropped_all);
+  out.refinement = std::move(rounds);
+  return out;
 }
 
 }  // namespace cvt

@@ -13,6 +13,27 @@
 
 namespace cvt {
 
+// One check of fidelity refinement (fidelity_refinement.h) and the round made from it, if any.
+struct FidelityRefinementRound {
+  std::size_t disagreeing_voxels = 0;  // voxels where mesh and object differ beyond tolerance
+  std::size_t deep_boundary_samples = 0;  // interior samples on the boundary, deep in the object
+  std::size_t added_samples = 0;       // surface samples added on the object boundary
+  std::size_t dropped_interior = 0;    // interior samples removed: next to the new ones, or
+                                       // deep on the boundary
+  bool accepted = false;  // its round's mesh had fewer deep samples, or as many and fewer
+                          // disagreeing voxels; false: dropped, or no round made (the last
+                          // check, when nothing was left to fix or no round was left)
+};
+
+// Stage 5's mesh after refinement, with the record of what refinement did. vertex_source is
+// into the refined sets: B then added_surface_samples; I without the dropped ones.
+struct RefinedMesh : MeshGenerationResult {
+  std::vector<Vec3> added_surface_samples;     // world, mm
+  std::vector<Vec3> dropped_interior_samples;  // world, mm
+  std::vector<FidelityRefinementRound> refinement;  // one per check of a kept mesh: the last
+                                                    // one is the final mesh's
+};
+
 struct FidelityRefinementOptions {
   int max_rounds = 3;           // re-triangulations at most; 0 = plain stage 5
   double tolerance_mm = 0;      // allowed disagreement; 0 = auto (1.5 × largest voxel spacing)
@@ -55,7 +76,7 @@ std::vector<int> interior_samples_on_boundary(const MeshGenerationResult& m,
 
 // Stage 5 with up to max_rounds of refinement; the result records what was added and dropped.
 // A small_tet_edge_mm of 0 becomes 2 × the largest voxel spacing here.
-MeshGenerationResult build_refined_mesh(const PreprocessResult& pre,
+RefinedMesh build_refined_mesh(const PreprocessResult& pre,
                                         const std::vector<Vec3>& surface,
                                         const std::vector<Vec3>& interior,
                                         const MeshGenerationOptions& generation,

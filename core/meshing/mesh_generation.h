@@ -51,18 +51,6 @@ struct MeshGenerationOptions {
                                          // of the largest (stray slivers)
 };
 
-// One check of fidelity refinement (fidelity_refinement.h) and the round made from it, if any.
-struct FidelityRefinementRound {
-  std::size_t disagreeing_voxels = 0;  // voxels where mesh and object differ beyond tolerance
-  std::size_t deep_boundary_samples = 0;  // interior samples on the boundary, deep in the object
-  std::size_t added_samples = 0;       // surface samples added on the object boundary
-  std::size_t dropped_interior = 0;    // interior samples removed: next to the new ones, or
-                                       // deep on the boundary
-  bool accepted = false;  // its round's mesh had fewer deep samples, or as many and fewer
-                          // disagreeing voxels; false: dropped, or no round made (the last
-                          // check, when nothing was left to fix or no round was left)
-};
-
 struct MeshGenerationResult {
   TetMesh mesh;                           // vertices: used samples of B then I (world, mm)
   std::vector<Vec3> exterior_poles;       // EP (world, mm)
@@ -78,13 +66,7 @@ struct MeshGenerationResult {
   std::vector<std::array<Vec3, 4>> removed_by_repair;  // tets removed by rules 3–4, for the viewer
   std::size_t unused_samples = 0;         // samples of B ∪ I no kept tet references
   std::vector<int> vertex_source;         // for each mesh vertex: index into B, or |B| + index
-                                          // in I; −1 for a vertex stage 6 inserted. After
-                                          // fidelity refinement B and I are the refined sets:
-                                          // B then added_surface_samples; I without dropped.
-  std::vector<Vec3> added_surface_samples;     // by fidelity refinement (world, mm)
-  std::vector<Vec3> dropped_interior_samples;  // by fidelity refinement (world, mm)
-  std::vector<FidelityRefinementRound> refinement;  // one per check of a kept mesh: the last
-                                                    // one is the final mesh's
+                                          // in I (the samples the mesh was built from)
 };
 
 // Stage 5 kept open for refinement: samples can be added to B and dropped from I, and the

@@ -5,16 +5,11 @@
 #include <cmath>
 
 #include "base/errors.h"
+#include "pipeline/parameter_registry.h"
 #include "base/memory.h"
 #include "fields/smoothing.h"
 
 namespace cvt {
-
-const char* stage_name(Stage stage) {
-  static const char* names[] = {"preprocess", "surface sampling", "CVT sampling",
-                                "shallow points", "mesh generation", "evaluation"};
-  return names[int(stage)];
-}
 
 PreprocessOptions preprocess_options(const Parameters& p) {
   PreprocessOptions o;
@@ -37,7 +32,6 @@ PreprocessOptions preprocess_options(const Parameters& p) {
 SurfaceSamplingOptions surface_options(const Parameters& p) {
   SurfaceSamplingOptions o;
   o.r = p.r;
-  o.sigma_mm = p.sigma_surface_mm;
   o.project_to_surface = p.project_samples;
   return o;
 }
@@ -68,33 +62,6 @@ MeshGenerationOptions mesh_options(const Parameters& p) {
   return o;
 }
 
-Stage first_changed_stage(const Parameters& a, const Parameters& b) {
-  // Compare each stage's own options; stages are listed upstream first.
-  const auto same_pre = [&] {
-    Parameters x = a, y = b;
-    return x.labels == y.labels && x.iso == y.iso && x.inside_above == y.inside_above &&
-           x.margin_voxels == y.margin_voxels &&
-           x.remove_small_components == y.remove_small_components &&
-           x.min_component_fraction == y.min_component_fraction &&
-           x.fill_cavities == y.fill_cavities && x.smoothing_sigma_mm == y.smoothing_sigma_mm &&
-           x.medial_min_separation_mm == y.medial_min_separation_mm &&
-           x.medial_min_angle_deg == y.medial_min_angle_deg && x.lfs_min_mm == y.lfs_min_mm &&
-           x.lfs_max_mm == y.lfs_max_mm;
-  };
-  if (!same_pre()) return Stage::preprocess;
-  if (a.r != b.r || a.sigma_surface_mm != b.sigma_surface_mm ||
-      a.project_samples != b.project_samples)
-    return Stage::surface;
-  if (a.sigma_density_mm != b.sigma_density_mm || a.interior_spacing_mm != b.interior_spacing_mm ||
-      a.interior_points != b.interior_points || a.epsilon_mm != b.epsilon_mm ||
-      a.max_iterations != b.max_iterations || a.seed != b.seed)
-    return Stage::cvt;
-  if (a.fidelity_rounds != b.fidelity_rounds || a.fidelity_tolerance_mm != b.fidelity_tolerance_mm ||
-      a.optimize != b.optimize)  // stage 6 runs inside the mesh stage
-    return Stage::mesh;
-  return Stage::count;  // threads and the guards do not change results
-}
-
 void Pipeline::set_image(std::shared_ptr<const Image> image) {
   image_ = std::move(image);
   invalidate_from(Stage::preprocess);
@@ -103,24 +70,24 @@ void Pipeline::set_image(std::shared_ptr<const Image> image) {
 void Pipeline::set_parameters(const Parameters& parameters) {
   validate(parameters);
   const Stage changed = first_changed_stage(parameters_, parameters);
-  const bool restart = parameters.optimization != parameters_.optimization;
   parameters_ = parameters;
   if (changed != Stage::count) invalidate_from(changed);
-  if (restart && changed > Stage::mesh) restart_optimization();
 }
 
 void Pipeline::invalidate_from(Stage s) {
-  for (int i = int(s); i < kStageCount; ++i) done_[i] = false;
+  for (int i = int(s); i < kStageCount; ++i) {
+    done_[i] = false;
+    ++generation_[i];
+  }
   switch (s) {  // drop results that no longer match (each case falls through downstream)
     case Stage::preprocess: preprocess_.reset(); [[fallthrough]];
     case Stage::surface: surface_.reset(); [[fallthrough]];
     case Stage::cvt: lloyd_.reset(); [[fallthrough]];
     case Stage::shallow: shallow_.reset(); [[fallthrough]];
-    case Stage::mesh:
+    case Stage::mesh: mesh_.reset(); [[fallthrough]];
+    case Stage::optimize:
       optimizer_.reset();
-      mesh_.reset();
-      unoptimized_.reset();
-      optimization_.reset();
+      optimized_.reset();
       [[fallthrough]];
     case Stage::evaluate:
       quality_.reset();
@@ -128,6 +95,11 @@ void Pipeline::invalidate_from(Stage s) {
       [[fallthrough]];
     case Stage::count: break;
   }
+}
+
+const TetMesh* Pipeline::final_mesh() const {
+  if (optimized_) return &optimized_->mesh;
+  return mesh_ ? &mesh_->mesh : nullptr;
 }
 
 double Pipeline::default_interior_spacing_mm() const {
@@ -155,6 +127,10 @@ void Pipeline::start_lloyd() {
   lloyd_->initialize();
 }
 
+void Pipeline::record(std::string name, double wall_s) {
+  records_.push_back({std::move(name), wall_s, double(peak_rss_bytes()) / (1024.0 * 1024.0)});
+}
+
 void Pipeline::run_stage(Stage s, const Progress& progress) {
   const auto t0 = std::chrono::steady_clock::now();
   switch (s) {
@@ -175,41 +151,39 @@ void Pipeline::run_stage(Stage s, const Progress& progress) {
       shallow_ = std::make_unique<ShallowResult>(remove_shallow_points(
           lloyd_->sites_world(), lloyd_->owners_of(preprocess_->boundary)));
       break;
-    case Stage::mesh: {
-      if (optimizer_) {  // stage 6 stepped part way (viewer): it goes on from where it is
-        optimize_passes(-1, progress);
-        break;
-      }
-      mesh_ = std::make_unique<MeshGenerationResult>(
+    case Stage::mesh:
+      mesh_ = std::make_unique<RefinedMesh>(
           build_refined_mesh(*preprocess_, surface_->world, shallow_->kept_world,
                              mesh_options(parameters_), refinement_options(parameters_), progress));
-      // Stage 6 (optional) starts from the stage-5 mesh, which is kept for before/after figures.
-      if (parameters_.optimize == "default") {
-        start_optimization();
-        optimize_passes(first_passes_, progress);
-      }
       break;
-    }
-    case Stage::evaluate: {
-      // Two records, so element quality and the (slower) fidelity are timed apart.
-      progress("quality", 0.0);
-      quality_ = std::make_unique<QualityReport>(compute_quality(mesh_->mesh));
-      const std::chrono::duration<double> q = std::chrono::steady_clock::now() - t0;
-      records_.push_back({"quality", q.count(), double(peak_rss_bytes()) / (1024.0 * 1024.0)});
-      progress("fidelity", 0.5);
-      const auto t1 = std::chrono::steady_clock::now();
-      fidelity_ = std::make_unique<FidelityReport>(
-          compute_fidelity(mesh_->mesh, preprocess_->object, {}, progress));
-      const std::chrono::duration<double> f = std::chrono::steady_clock::now() - t1;
-      records_.push_back({"fidelity", f.count(), double(peak_rss_bytes()) / (1024.0 * 1024.0)});
+    case Stage::optimize:
+      if (parameters_.optimize == OptimizeMode::standard) optimize_passes(-1, progress);
+      break;
+    case Stage::evaluate:
+      evaluate(progress);  // records its two parts itself
       done_[int(s)] = true;
+      ++generation_[int(s)];
       return;
-    }
     case Stage::count: break;
   }
   done_[int(s)] = true;
-  const std::chrono::duration<double> d = std::chrono::steady_clock::now() - t0;
-  records_.push_back({stage_name(s), d.count(), double(peak_rss_bytes()) / (1024.0 * 1024.0)});
+  ++generation_[int(s)];
+  record(std::string(stage_name(s)),
+         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+}
+
+void Pipeline::evaluate(const Progress& progress) {
+  // Two records, so element quality and the (slower) fidelity are timed apart.
+  const TetMesh& mesh = *final_mesh();
+  auto t0 = std::chrono::steady_clock::now();
+  progress("quality", 0.0);
+  quality_ = std::make_unique<QualityReport>(compute_quality(mesh));
+  record("quality", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  progress("fidelity", 0.5);
+  t0 = std::chrono::steady_clock::now();
+  fidelity_ = std::make_unique<FidelityReport>(
+      compute_fidelity(mesh, preprocess_->object, {}, progress));
+  record("fidelity", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
 }
 
 void Pipeline::run_through(Stage last, const Progress& progress) {
@@ -217,26 +191,24 @@ void Pipeline::run_through(Stage last, const Progress& progress) {
     if (!done_[s]) run_stage(Stage(s), progress);
 }
 
-void Pipeline::start_optimization() {
-  unoptimized_ = std::move(mesh_);
-  mesh_ = std::make_unique<MeshGenerationResult>(*unoptimized_);
-  optimizer_ = std::make_unique<MeshOptimizer>(unoptimized_->mesh, &preprocess_->indicator,
-                                               parameters_.optimization, pass_statistics_);
-}
-
 int Pipeline::optimize_passes(int k, const Progress& progress) {
   progress("optimisation", 0.0);
+  if (!optimizer_)
+    optimizer_ = std::make_unique<MeshOptimizer>(mesh_->mesh, &preprocess_->indicator,
+                                                 parameters_.optimization, pass_statistics_);
   int done = 0;
   // The mesh follows the optimiser also after a cancel (every phase of a pass keeps it valid).
   auto adopt = [&] {
-    auto result = std::make_unique<OptimizationResult>(optimizer_->result());
-    mesh_->mesh = optimizer_->mesh(&result->vertex_origin);
+    auto result = std::make_unique<OptimizedMesh>();
+    result->optimization = optimizer_->result();
+    result->mesh = optimizer_->mesh(&result->optimization.vertex_origin);
     // Vertices were inserted and removed: map each one back to its sample (−1: inserted).
-    std::vector<int> source(result->vertex_origin.size(), -1);
-    for (std::size_t v = 0; v < source.size(); ++v)
-      if (const int o = result->vertex_origin[v]; o >= 0) source[v] = unoptimized_->vertex_source[o];
-    mesh_->vertex_source = std::move(source);
-    optimization_ = std::move(result);
+    const std::vector<std::int32_t>& origin = result->optimization.vertex_origin;
+    result->vertex_source.assign(origin.size(), -1);
+    for (std::size_t v = 0; v < origin.size(); ++v)
+      if (origin[v] >= 0) result->vertex_source[v] = mesh_->vertex_source[std::size_t(origin[v])];
+    optimized_ = std::move(result);
+    ++generation_[int(Stage::optimize)];
     if (optimizer_->finished()) optimizer_.reset();  // frees its working mesh
   };
   try {
@@ -249,34 +221,17 @@ int Pipeline::optimize_passes(int k, const Progress& progress) {
   return done;
 }
 
-void Pipeline::restart_optimization() {
-  if (!unoptimized_) return;  // stage 6 has not started
-  optimizer_.reset();
-  optimization_.reset();
-  mesh_ = std::move(unoptimized_);
-  start_optimization();  // again from the kept stage-5 mesh, no pass yet
-  done_[int(Stage::mesh)] = false;
-  invalidate_from(Stage::evaluate);
-}
-
 int Pipeline::step_optimization(int k, const Progress& progress) {
-  if (parameters_.optimize != "default")
+  if (parameters_.optimize != OptimizeMode::standard)
     throw InputError("optimize: stage 6 is off (optimize = none); set it to default to step it");
-  run_through(Stage::shallow, progress);
-  if (done_[int(Stage::mesh)]) return 0;  // finished already
+  run_through(Stage::mesh, progress);
+  if (done_[int(Stage::optimize)]) return 0;  // finished already
   invalidate_from(Stage::evaluate);
-  if (!optimizer_) {  // stage 5, and the optimiser set up without running a pass
-    first_passes_ = 0;
-    try {
-      run_stage(Stage::mesh, progress);
-    } catch (...) {
-      first_passes_ = -1;
-      throw;
-    }
-    first_passes_ = -1;
-  }
-  const int done = optimizer_ ? optimize_passes(k, progress) : 0;
-  done_[int(Stage::mesh)] = !optimizer_;
+  const auto t0 = std::chrono::steady_clock::now();
+  const int done = optimize_passes(k, progress);
+  record(std::string(stage_name(Stage::optimize)),
+         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  done_[int(Stage::optimize)] = !optimizer_;
   return done;
 }
 
@@ -286,6 +241,7 @@ int Pipeline::step_lloyd(int k, const Progress& progress) {
   invalidate_from(Stage::shallow);
   const int done = k < 0 ? lloyd_->run_to_convergence(progress) : lloyd_->run(k, progress);
   done_[int(Stage::cvt)] = lloyd_->converged();
+  ++generation_[int(Stage::cvt)];
   return done;
 }
 

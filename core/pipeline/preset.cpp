@@ -13,49 +13,18 @@
 #include <nlohmann/json.hpp>
 
 #include "base/errors.h"
+#include "pipeline/parameter_registry.h"
 
 namespace cvt {
 namespace {
 
 using nlohmann::json;
 
-// One table drives both directions, so a new parameter is one line here.
-template <class F>
-void for_each_field(Parameters& p, F&& f) {
-  f("labels", p.labels);
-  f("iso", p.iso);
-  f("inside_above", p.inside_above);
-  f("margin_voxels", p.margin_voxels);
-  f("remove_small_components", p.remove_small_components);
-  f("min_component_fraction", p.min_component_fraction);
-  f("fill_cavities", p.fill_cavities);
-  f("smoothing_sigma_mm", p.smoothing_sigma_mm);
-  f("medial_min_separation_mm", p.medial_min_separation_mm);
-  f("medial_min_angle_deg", p.medial_min_angle_deg);
-  f("lfs_min_mm", p.lfs_min_mm);
-  f("lfs_max_mm", p.lfs_max_mm);
-  f("r", p.r);
-  f("sigma_surface_mm", p.sigma_surface_mm);
-  f("project_samples", p.project_samples);
-  f("sigma_density_mm", p.sigma_density_mm);
-  f("interior_spacing_mm", p.interior_spacing_mm);
-  f("interior_points", p.interior_points);
-  f("epsilon_mm", p.epsilon_mm);
-  f("max_iterations", p.max_iterations);
-  f("fidelity_rounds", p.fidelity_rounds);
-  f("fidelity_tolerance_mm", p.fidelity_tolerance_mm);
-  f("optimize", p.optimize);
-  f("optimization", p.optimization);
-  f("seed", p.seed);
-  f("threads", p.threads);
-  f("max_points", p.max_points);
-  f("max_memory_mb", p.max_memory_mb);
-}
-
 const char* type_name(const json& j) { return j.type_name(); }
 
 template <class T>
-void read_value(const json& j, const std::string& key, T& out) {
+void read_value(const json& j, const ParameterSpec& spec, T& out) {
+  const std::string key = spec.name();
   if constexpr (std::is_same_v<T, bool>) {
     if (!j.is_boolean()) throw InputError(key + ": expected true or false, got " + type_name(j));
     out = j.get<bool>();
@@ -81,19 +50,15 @@ void read_value(const json& j, const std::string& key, T& out) {
       out.reset();
     } else {
       double v;
-      read_value(j, key, v);
+      read_value(j, spec, v);
       out = v;
     }
-  } else if constexpr (std::is_same_v<T, OptimizationOptions>) {
-    if (!j.is_object()) throw InputError(key + ": expected an object of stage-6 options");
-    for (auto it = j.begin(); it != j.end(); ++it) {
-      const auto& fields = optimization_fields();
-      const auto f = std::find_if(fields.begin(), fields.end(),
-                                  [&](const OptimizationField& f) { return f.key == it.key(); });
-      const std::string name = key + "." + it.key();
-      if (f == fields.end()) throw InputError("unknown parameter '" + name + "'");
-      visit_field(*f, out, [&](auto& member) { read_value(*it, name, member); });
-    }
+  } else if constexpr (std::is_same_v<T, OptimizeMode>) {
+    const auto& words = spec.words;
+    if (!j.is_string() || (j.get<std::string>() != words[0] && j.get<std::string>() != words[1]))
+      throw InputError(key + ": must be \"" + std::string(words[0]) + "\" or \"" +
+                       std::string(words[1]) + "\"");
+    out = j.get<std::string>() == words[0] ? OptimizeMode::none : OptimizeMode::standard;
   } else {  // label list: "all" or an array of integers
     if (j.is_string() && j.get<std::string>() == "all") {
       out.clear();
@@ -103,87 +68,52 @@ void read_value(const json& j, const std::string& key, T& out) {
     out.clear();
     for (const json& item : j) {
       std::int64_t v;
-      read_value(item, key, v);
+      read_value(item, spec, v);
       out.push_back(v);
     }
   }
 }
 
-void require(bool ok, const char* key, const char* what) {
-  if (!ok) throw InputError(std::string(key) + ": " + what);
-}
-
 }  // namespace
 
-void validate(const Parameters& p) {
-  auto finite = [](double v) { return std::isfinite(v); };
-  require(!p.iso || finite(*p.iso), "iso", "must be a finite number");
-  require(p.margin_voxels >= 1 && p.margin_voxels <= 64, "margin_voxels", "must be in 1..64");
-  require(finite(p.min_component_fraction) && p.min_component_fraction >= 0 &&
-              p.min_component_fraction <= 1,
-          "min_component_fraction", "must be in [0, 1]");
-  require(finite(p.smoothing_sigma_mm) && p.smoothing_sigma_mm >= 0, "smoothing_sigma_mm",
-          "must be >= 0 (0 = auto)");
-  require(finite(p.medial_min_separation_mm) && p.medial_min_separation_mm >= 0,
-          "medial_min_separation_mm", "must be >= 0 (0 = auto)");
-  require(finite(p.medial_min_angle_deg) && p.medial_min_angle_deg >= 0 &&
-              p.medial_min_angle_deg <= 180,
-          "medial_min_angle_deg", "must be in [0, 180]");
-  require(finite(p.lfs_min_mm) && p.lfs_min_mm >= 0, "lfs_min_mm", "must be >= 0 (0 = auto)");
-  require(finite(p.lfs_max_mm) && p.lfs_max_mm >= 0, "lfs_max_mm", "must be >= 0 (0 = auto)");
-  require(p.lfs_max_mm == 0 || p.lfs_max_mm >= p.lfs_min_mm, "lfs_max_mm",
-          "must not be below lfs_min_mm");
-  require(finite(p.r) && p.r > 0 && p.r < 1, "r", "must be in (0, 1)");
-  require(finite(p.sigma_surface_mm) && p.sigma_surface_mm > 0, "sigma_surface_mm", "must be > 0");
-  require(finite(p.sigma_density_mm) && p.sigma_density_mm >= 0, "sigma_density_mm",
-          "must be >= 0 (0 = auto)");
-  require(finite(p.interior_spacing_mm) && p.interior_spacing_mm >= 0, "interior_spacing_mm",
-          "must be >= 0 (0 = auto)");
-  require(p.interior_points >= 0, "interior_points", "must be >= 0 (0 = from the spacing)");
-  require(finite(p.epsilon_mm) && p.epsilon_mm >= 0, "epsilon_mm", "must be >= 0 (0 = auto)");
-  require(p.max_iterations >= 0 && p.max_iterations <= 100000, "max_iterations",
-          "must be in 0..100000");
-  require(p.fidelity_rounds >= 0 && p.fidelity_rounds <= 10, "fidelity_rounds", "must be in 0..10");
-  require(finite(p.fidelity_tolerance_mm) && p.fidelity_tolerance_mm >= 0, "fidelity_tolerance_mm",
-          "must be >= 0 (0 = auto)");
-  require(p.optimize == "none" || p.optimize == "default", "optimize",
-          "must be \"none\" or \"default\"");
-  validate(p.optimization);
-  require(p.threads >= 0 && p.threads <= 1024, "threads", "must be in 0..1024 (0 = all cores)");
-  require(p.max_points > 0, "max_points", "must be > 0");
-  require(finite(p.max_memory_mb) && p.max_memory_mb >= 0, "max_memory_mb",
-          "must be >= 0 (0 = available memory)");
-}
-
-json to_json(const Parameters& parameters) {
-  Parameters p = parameters;
+json to_json(const Parameters& p) {
   json j = json::object();
-  for_each_field(p, [&](const char* key, auto& value) {
-    using T = std::decay_t<decltype(value)>;
-    if constexpr (std::is_same_v<T, std::optional<double>>)
-      j[key] = value ? json(*value) : json(nullptr);
-    else if constexpr (std::is_same_v<T, std::vector<std::int64_t>>)
-      j[key] = value.empty() ? json("all") : json(value);
-    else if constexpr (std::is_same_v<T, OptimizationOptions>)
-      for (const OptimizationField& f : optimization_fields())
-        visit_field(f, value, [&](const auto& member) { j[key][std::string(f.key)] = member; });
-    else
-      j[key] = value;
-  });
+  for (const ParameterSpec& spec : parameter_registry()) {
+    json& slot = spec.section.empty() ? j[std::string(spec.key)]
+                                      : j[std::string(spec.section)][std::string(spec.key)];
+    visit_parameter(spec, p, [&](const auto& value) {
+      using T = std::decay_t<decltype(value)>;
+      if constexpr (std::is_same_v<T, std::optional<double>>)
+        slot = value ? json(*value) : json(nullptr);
+      else if constexpr (std::is_same_v<T, std::vector<std::int64_t>>)
+        slot = value.empty() ? json("all") : json(value);
+      else if constexpr (std::is_same_v<T, OptimizeMode>)
+        slot = std::string(spec.words[int(value)]);
+      else
+        slot = value;
+    });
+  }
   return j;
 }
 
 Parameters parameters_from_json(const json& j, const Parameters& base) {
   if (!j.is_object()) throw InputError("preset: expected a JSON object of parameters");
   Parameters p = base;
-  std::vector<std::string> known;
-  for_each_field(p, [&](const char* key, auto& value) {
-    known.push_back(key);
-    if (auto it = j.find(key); it != j.end()) read_value(*it, key, value);
-  });
-  for (auto it = j.begin(); it != j.end(); ++it)
-    if (std::find(known.begin(), known.end(), it.key()) == known.end())
-      throw InputError("unknown parameter '" + it.key() + "'");
+  auto read = [&](std::string_view section, const std::string& key, const json& value) {
+    const ParameterSpec* spec = find_parameter(section, key);
+    if (!spec)
+      throw InputError("unknown parameter '" +
+                       (section.empty() ? key : std::string(section) + "." + key) + "'");
+    visit_parameter(*spec, p, [&](auto& member) { read_value(value, *spec, member); });
+  };
+  for (auto it = j.begin(); it != j.end(); ++it) {
+    if (it.key() == "optimization") {
+      if (!it->is_object()) throw InputError("optimization: expected an object of stage-6 options");
+      for (auto o = it->begin(); o != it->end(); ++o) read("optimization", o.key(), *o);
+    } else {
+      read("", it.key(), *it);
+    }
+  }
   validate(p);
   return p;
 }

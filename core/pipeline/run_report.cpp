@@ -51,12 +51,12 @@ nlohmann::json run_report(const Pipeline& pipe) {
   if (const SurfaceSamples* s = pipe.surface()) counts["surface_samples"] = s->world.size();
   if (const LloydStepper* l = pipe.lloyd()) counts["interior_samples"] = l->sites_world().size();
   if (const ShallowResult* s = pipe.shallow()) counts["shallow_removed"] = s->removed_world.size();
-  if (const MeshGenerationResult* m = pipe.mesh()) {
+  if (const RefinedMesh* m = pipe.mesh()) {
     counts["exterior_poles"] = m->exterior_poles.size();
     counts["interior_poles"] = m->interior_poles.size();
     counts["near_surface_poles"] = m->near_surface_poles;
-    counts["vertices"] = m->mesh.vertices.size();
-    counts["tets"] = m->mesh.tets.size();
+    counts["vertices"] = pipe.final_mesh()->vertices.size();
+    counts["tets"] = pipe.final_mesh()->tets.size();
     counts["delaunay_tets"] = m->delaunay_tets;
     counts["removed_by_poles"] = m->removed_by_poles;
     counts["removed_by_centroid"] = m->removed_by_centroid;
@@ -78,7 +78,7 @@ nlohmann::json run_report(const Pipeline& pipe) {
     j["refinement"] = rounds;
   }
   j["counts"] = counts;
-  if (const OptimizationResult* o = pipe.optimization()) j["optimization"] = to_json(*o);
+  if (const OptimizedMesh* o = pipe.optimized()) j["optimization"] = to_json(o->optimization);
   if (const QualityReport* q = pipe.quality()) j["quality"] = to_json(*q);
   if (const FidelityReport* f = pipe.fidelity()) j["fidelity"] = to_json(*f);
   return j;

@@ -96,7 +96,6 @@ bool project_to_level_set(const Volume<float>& field, float level, Vec3& index,
 SurfaceSamples sample_surface(const PreprocessResult& pre, const SurfaceSamplingOptions& options,
                               const Progress& progress) {
   if (!(options.r > 0 && options.r < 1)) throw InputError("--r: must be in (0, 1)");
-  if (!(options.sigma_mm > 0)) throw InputError("--sigma-surface: must be > 0 mm");
   const Grid& grid = pre.object.grid;
   const std::vector<std::int32_t>& F = pre.boundary;
   const std::size_t n = F.size();
@@ -110,7 +109,6 @@ SurfaceSamples sample_surface(const PreprocessResult& pre, const SurfaceSampling
   const double max_spacing = std::max({grid.spacing.x, grid.spacing.y, grid.spacing.z});
   const PointGrid points(pos, 4.0 * max_spacing);
   const double r2 = options.r * options.r;
-  const double two_sigma2 = 2.0 * options.sigma_mm * options.sigma_mm;
 
   // Priority = −(h² − r² lfs²): the log of the energy times 2σ², so no exp() underflows.
   std::vector<double> h(lfs), key(n);
@@ -130,7 +128,7 @@ SurfaceSamples sample_surface(const PreprocessResult& pre, const SurfaceSampling
     in_f[p] = 0;
     --remaining;
     out.voxels.push_back(F[p]);
-    out.energy.push_back(float(std::exp(k / two_sigma2)));
+    out.priority_mm2.push_back(float(k));
     const double lfs_p2 = lfs[p] * lfs[p];
     points.for_each_within(pos[p], lfs[p], [&](int q, double d2) {
       if (!in_f[q]) return;

@@ -5,6 +5,7 @@
 // boundary voxel lies within r·lfs of a sample.
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <vector>
 
@@ -15,8 +16,6 @@ namespace cvt {
 
 struct SurfaceSamplingOptions {
   double r = 0.4;                   // sampling ratio: samples within r·lfs of every boundary voxel
-  double sigma_mm = 2.0;            // σ of eq. (3), mm; scales energies (the order only depends
-                                    // on h² − r² lfs², so σ never changes which voxel is next)
   bool project_to_surface = true;   // move samples onto the 0.5 level of the smoothed indicator
   double max_projection_voxels = 1.5;  // in largest voxel spacings; a projection moving
                                        // farther keeps the voxel centre
@@ -26,9 +25,16 @@ struct SurfaceSamples {
   std::vector<std::int32_t> voxels;  // sampled boundary voxels (linear index in the object grid)
   std::vector<Vec3> voxel_world;     // their voxel centres (world, mm)
   std::vector<Vec3> world;           // final positions: projected when enabled (world, mm)
-  std::vector<float> energy;         // energy of each sample when it was taken (eq. 3)
+  // −(h² − r² lfs²) of each sample when it was taken (mm²): the log of its eq. (3) energy times
+  // 2σ². The order of Algorithm 1 depends on it alone, so no sample depends on σ.
+  std::vector<float> priority_mm2;
   std::size_t projection_failures = 0;  // samples left at the voxel centre
 };
+
+// Eq. (3)'s energy of a sample of priority `priority_mm2`, for a σ in mm.
+inline double surface_energy(double priority_mm2, double sigma_mm) {
+  return std::exp(priority_mm2 / (2.0 * sigma_mm * sigma_mm));
+}
 
 SurfaceSamples sample_surface(const PreprocessResult& pre, const SurfaceSamplingOptions& options,
                               const Progress& progress = {});
