@@ -36,11 +36,12 @@ std::shared_ptr<const VolumeLayers> make_volume_layers(const PreprocessResult& p
   return v;
 }
 
-std::shared_ptr<const MeshLayers> make_mesh_layers(const MeshGenerationResult& result) {
+std::shared_ptr<const MeshLayers> make_mesh_layers(const TetMesh& mesh,
+                                                   const std::vector<Vec3>& exterior_poles) {
   auto m = std::make_shared<MeshLayers>();
-  m->mesh = result.mesh;
+  m->mesh = mesh;
   m->neighbours = compute_tet_neighbours(m->mesh);
-  m->exterior_poles = result.exterior_poles;
+  m->exterior_poles = exterior_poles;
   for (int k = 0; k < kMeasureCount; ++k) {
     m->measures[k] = tet_measure(m->mesh, Measure(k));
   }
@@ -67,6 +68,7 @@ Stage stage_of_record(const std::string& name) {
   for (int st = 0; st < kStageCount; ++st)
     if (name == stage_name(Stage(st))) return Stage(st);
   if (name == "quality" || name == "fidelity") return Stage::evaluate;
+  if (name == "optimisation passes") return Stage::optimize;  // stepped (Pipeline::step_optimization)
   return Stage::count;
 }
 
@@ -91,28 +93,12 @@ std::shared_ptr<const SceneData> SceneDataBuilder::update(const Pipeline& pipeli
                                                           std::shared_ptr<const Image> image) {
   auto s = std::make_shared<SceneData>();
   const SceneData* prev = last_.get();
-  // Stages that ran since the last snapshot: their results are new objects to copy.
+  // Stages whose result changed since the last snapshot: their parts are copied again.
   std::array<bool, kStageCount> ran{};
-  const auto& records = pipeline.records();
-  for (std::size_t i = records_seen_; i < records.size(); ++i)
-    if (const Stage st = stage_of_record(records[i].name); st != Stage::count) ran[int(st)] = true;
-  records_seen_ = records.size();
-  const std::array<const void*, kStageCount> now{pipeline.preprocess(), pipeline.surface(),
-                                                 pipeline.lloyd(),      pipeline.shallow(),
-                                                 pipeline.mesh(),       pipeline.quality()};
   for (int st = 0; st < kStageCount; ++st) {
-    if (now[st] != seen_[st]) ran[st] = true;
-    seen_[st] = now[st];
+    ran[st] = !prev || pipeline.generation(Stage(st)) != seen_[st];
+    seen_[st] = pipeline.generation(Stage(st));
   }
-  const bool mesh_rerun = ran[int(Stage::mesh)];  // stage 5 (and 6) ran again
-  const OptimizationResult* optimization = pipeline.optimization();
-  const std::size_t passes = optimization ? optimization->history.size() : 0;
-  if (optimization != seen_optimization_ || passes != seen_passes_) ran[int(Stage::mesh)] = true;
-  seen_optimization_ = optimization;
-  seen_passes_ = passes;
-  const MeshGenerationResult* unoptimized = pipeline.unoptimized_mesh();
-  const bool unoptimized_changed = unoptimized != seen_unoptimized_ || mesh_rerun;
-  seen_unoptimized_ = unoptimized;
   const bool new_image = !prev || prev->image != image;
 
   s->image = image;
@@ -125,7 +111,7 @@ std::shared_ptr<const SceneData> SceneDataBuilder::update(const Pipeline& pipeli
   }
   s->parameters = pipeline.parameters();
   for (int st = 0; st < kStageCount; ++st) s->stale[st] = pipeline.is_stale(Stage(st));
-  s->records = records;
+  s->records = pipeline.records();
   s->default_interior_spacing_mm = pipeline.default_interior_spacing_mm();
 
   // A part is kept from the previous snapshot when its result still exists and its stage did
@@ -152,15 +138,19 @@ std::shared_ptr<const SceneData> SceneDataBuilder::update(const Pipeline& pipeli
   const ShallowResult* sh = pipeline.shallow();
   s->shallow = pick(prev ? prev->shallow : nullptr, sh != nullptr, ran[int(Stage::shallow)],
                     [&] { return std::make_shared<const ShallowResult>(*sh); });
-  const MeshGenerationResult* mesh = pipeline.mesh();
-  s->mesh = pick(prev ? prev->mesh : nullptr, mesh != nullptr, ran[int(Stage::mesh)],
-                 [&] { return make_mesh_layers(*mesh); });
+  // The mesh drawn is the pipeline's final one: stage 6's once it ran, else stage 5's.
+  const RefinedMesh* generated = pipeline.mesh();
+  const OptimizedMesh* optimized = pipeline.optimized();
+  const bool mesh_changed = ran[int(Stage::mesh)] || ran[int(Stage::optimize)];
+  s->mesh = pick(prev ? prev->mesh : nullptr, generated != nullptr, mesh_changed, [&] {
+    return make_mesh_layers(*pipeline.final_mesh(), generated->exterior_poles);
+  });
   s->optimization =
-      pick(prev ? prev->optimization : nullptr, optimization != nullptr, ran[int(Stage::mesh)],
-           [&] { return std::make_shared<const OptimizationResult>(*optimization); });
-  s->unoptimized =
-      pick(prev ? prev->unoptimized : nullptr, unoptimized != nullptr, unoptimized_changed,
-           [&] { return make_mesh_measures(unoptimized->mesh); });
+      pick(prev ? prev->optimization : nullptr, optimized != nullptr, ran[int(Stage::optimize)],
+           [&] { return std::make_shared<const OptimizationResult>(optimized->optimization); });
+  s->unoptimized = pick(prev ? prev->unoptimized : nullptr, generated && optimized,
+                        ran[int(Stage::mesh)] || !(prev && prev->unoptimized),
+                        [&] { return make_mesh_measures(generated->mesh); });
   const bool evaluated = ran[int(Stage::evaluate)];
   s->quality = pick(prev ? prev->quality : nullptr, pipeline.quality() != nullptr, evaluated,
                     [&] { return std::make_shared<const QualityReport>(*pipeline.quality()); });

@@ -67,7 +67,7 @@ struct SceneData {
   std::shared_ptr<const std::vector<Vec3>> surface_voxel_samples;  // B at voxel centres (world)
   std::shared_ptr<const LloydState> lloyd;
   std::shared_ptr<const ShallowResult> shallow;
-  std::shared_ptr<const MeshLayers> mesh;  // the optimised mesh once stage 6 ran
+  std::shared_ptr<const MeshLayers> mesh;  // the final mesh: stage 6's once it ran
   // Stage 6: its options as applied, its result so far (per-pass history), and the stage-5
   // mesh's measures (null until stage 6 started), for before/after figures.
   std::shared_ptr<const OptimizationResult> optimization;
@@ -93,20 +93,15 @@ class SceneDataBuilder {
 
  private:
   std::shared_ptr<const SceneData> last_;
-  std::size_t records_seen_ = 0;
-  // Addresses of the pipeline's results at the last snapshot: a new address also means a new
-  // result (the records are the main signal; this catches a stage that records nothing).
-  std::array<const void*, kStageCount> seen_{};
-  // Stage 6 steps without a record: its result's address and pass count tell a new pass.
-  const void* seen_optimization_ = nullptr;
-  std::size_t seen_passes_ = 0;
-  const void* seen_unoptimized_ = nullptr;
+  // Pipeline::generation of each stage at the last snapshot.
+  std::array<std::uint64_t, kStageCount> seen_{};
 };
 
 std::shared_ptr<const LloydState> make_lloyd_state(const LloydStepper& stepper);
 std::shared_ptr<const VolumeLayers> make_volume_layers(const PreprocessResult& pre,
                                                        const Grid& image_grid);
-std::shared_ptr<const MeshLayers> make_mesh_layers(const MeshGenerationResult& result);
+std::shared_ptr<const MeshLayers> make_mesh_layers(const TetMesh& mesh,
+                                                   const std::vector<Vec3>& exterior_poles);
 std::shared_ptr<const MeshMeasures> make_mesh_measures(const TetMesh& mesh);
 
 }  // namespace cvt::render

@@ -39,7 +39,8 @@ Image slotted_image() {
 }
 
 struct SlotRun {
-  MeshGenerationResult mesh;
+  RefinedMesh refined;  // stage 5, with the refinement record
+  TetMesh mesh;         // the final mesh (stage 6 on)
   QualityReport quality;
   FidelityReport fidelity;
 };
@@ -51,9 +52,9 @@ SlotRun run(const Image& image, int rounds, std::uint64_t seed = 1) {
   params.seed = seed;
   params.fidelity_rounds = rounds;
   pipe.set_parameters(params);
-  pipe.run_through(Stage::mesh);
-  return {*pipe.mesh(), compute_quality(pipe.mesh()->mesh),
-          compute_fidelity(pipe.mesh()->mesh, pipe.preprocess()->object)};
+  pipe.run_through(Stage::optimize);
+  return {*pipe.mesh(), *pipe.final_mesh(), compute_quality(*pipe.final_mesh()),
+          compute_fidelity(*pipe.final_mesh(), pipe.preprocess()->object)};
 }
 
 }  // namespace
@@ -156,8 +157,8 @@ TEST(FidelityRefinement, NarrowSlotOverSeeds) {
       EXPECT_TRUE(r->quality.validity.valid);
       EXPECT_TRUE(r->quality.validity.boundary.closed_manifold);
     }
-    EXPECT_TRUE(plain.mesh.refinement.empty());
-    const auto& rounds = refined.mesh.refinement;
+    EXPECT_TRUE(plain.refined.refinement.empty());
+    const auto& rounds = refined.refined.refinement;
     ASSERT_GE(rounds.size(), 1u);
     // Every check after the first is of a kept round's mesh: fewer pits, or as many pits and
     // fewer disagreeing voxels than the check before.
@@ -168,8 +169,8 @@ TEST(FidelityRefinement, NarrowSlotOverSeeds) {
     }
     // Without a kept round nothing was added, and the mesh is the first mesh.
     if (!rounds[0].accepted) {
-      EXPECT_TRUE(refined.mesh.added_surface_samples.empty());
-      EXPECT_EQ(refined.mesh.mesh.tets, plain.mesh.mesh.tets);
+      EXPECT_TRUE(refined.refined.added_surface_samples.empty());
+      EXPECT_EQ(refined.mesh.tets, plain.mesh.tets);
     }
     plain_sum += plain.fidelity.distance.hausdorff_mm;
     refined_sum += refined.fidelity.distance.hausdorff_mm;
@@ -183,8 +184,8 @@ TEST(FidelityRefinement, NarrowSlotOverSeeds) {
 TEST(FidelityRefinement, SameInputSameMesh) {
   const Image image = slotted_image();
   const SlotRun a = run(image, 1), b = run(image, 1);
-  EXPECT_EQ(a.mesh.mesh.tets, b.mesh.mesh.tets);
-  ASSERT_EQ(a.mesh.mesh.vertices.size(), b.mesh.mesh.vertices.size());
-  for (std::size_t v = 0; v < a.mesh.mesh.vertices.size(); ++v)
-    EXPECT_EQ(distance(a.mesh.mesh.vertices[v], b.mesh.mesh.vertices[v]), 0.0);
+  EXPECT_EQ(a.mesh.tets, b.mesh.tets);
+  ASSERT_EQ(a.mesh.vertices.size(), b.mesh.vertices.size());
+  for (std::size_t v = 0; v < a.mesh.vertices.size(); ++v)
+    EXPECT_EQ(distance(a.mesh.vertices[v], b.mesh.vertices[v]), 0.0);
 }

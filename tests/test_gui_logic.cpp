@@ -23,7 +23,7 @@
 #include "frame_stats.h"
 #include "input_actions.h"
 #include "io/image_io.h"
-#include "parameter_info.h"
+#include "pipeline/parameter_registry.h"
 #include "phantoms.h"
 #include "pipeline_worker.h"
 #include "pipeline/preset.h"
@@ -166,19 +166,6 @@ TEST(ViewSettings, SliceIndexDefaultsToTheObject) {
   EXPECT_EQ(effective_slice_index(v, scene), 7);
   v.slice_index = 99;  // out of range: back to the default
   EXPECT_EQ(effective_slice_index(v, scene), 23);
-}
-
-TEST(ParameterInfo, EveryPresetKeyHasATooltip) {
-  const nlohmann::json keys = to_json(Parameters{});
-  EXPECT_EQ(keys.size(), parameter_infos().size());
-  for (const auto& [key, value] : keys.items()) {
-    const ParameterInfo* info = find_parameter_info(key);
-    ASSERT_NE(info, nullptr) << key;
-    EXPECT_FALSE(info->tooltip.empty()) << key;
-    // Lengths say their unit.
-    if (key.size() > 3 && key.substr(key.size() - 3) == "_mm")
-      EXPECT_NE(info->tooltip.find("mm"), std::string_view::npos) << key;
-  }
 }
 
 TEST(RecentFiles, MostRecentFirstNoDuplicatesPersisted) {
@@ -435,12 +422,12 @@ TEST(Session, StepsStageSixPassByPassWithBeforeAndAfter) {
   s.open_image(torus_file());
   s.run_through(Stage::shallow);
   settle(s);
-  s.edited.optimize = "none";  // a user who turned stage 6 off; stepping turns it back on
+  s.edited.optimize = OptimizeMode::none;  // a user who turned stage 6 off; stepping turns it back on
   // One pass: stage 5 first, optimisation turned on, the stage-5 measures kept beside.
   s.step_optimization(1);
   settle(s);
   ASSERT_EQ(s.failed_jobs, 0u) << s.first_error;
-  EXPECT_EQ(s.edited.optimize, "default");
+  EXPECT_EQ(s.edited.optimize, OptimizeMode::standard);
   const render::SceneData* scene = s.scene();
   ASSERT_NE(scene->mesh, nullptr);
   ASSERT_NE(scene->unoptimized, nullptr);
@@ -505,32 +492,18 @@ TEST(Session, StepsStageSixPassByPassWithBeforeAndAfter) {
   EXPECT_EQ(s.failed_jobs, 0u);
 }
 
-TEST(OptimizationSettings, EveryFieldHasATooltipAndCounts) {
-  const OptimizationOptions defaults;
-  for (const OptimizationField& f : optimization_fields()) {
-    EXPECT_FALSE(f.tooltip.empty()) << f.key;
-    EXPECT_EQ((f.real != nullptr) + (f.integer != nullptr) + (f.flag != nullptr), 1) << f.key;
-    // Changing any field makes the options differ (so the panel marks the edit pending).
-    OptimizationOptions o = defaults;
-    if (f.real) o.*f.real += 0.5;
-    if (f.integer) o.*f.integer += 1;
-    if (f.flag) o.*f.flag = !(o.*f.flag);
-    EXPECT_NE(o, defaults) << f.key;
-    // Units: angles in degrees, lengths in mm or voxels, counts.
-    if (f.key.find("_deg") != std::string_view::npos)
-      EXPECT_NE(f.tooltip.find("degrees"), std::string_view::npos) << f.key;
-    if (f.key.find("_mm") != std::string_view::npos)
-      EXPECT_NE(f.tooltip.find("mm"), std::string_view::npos) << f.key;
-    if (f.key.find("_voxels") != std::string_view::npos)
-      EXPECT_NE(f.tooltip.find("voxel"), std::string_view::npos) << f.key;
-    if (f.integer) EXPECT_NE(f.tooltip.find("count"), std::string_view::npos) << f.key;
-  }
-  OptimizationOptions wild = defaults;
-  wild.max_passes = -4;
-  wild.target_dihedral_deg = 400;
-  clamp(wild);
-  EXPECT_EQ(wild.max_passes, 0);
-  EXPECT_LE(wild.target_dihedral_deg, 35);
+TEST(PipelinePanel, EditedNumbersAreKeptInTheirClosedRanges) {
+  Parameters wild;
+  wild.optimization.max_passes = -4;
+  wild.optimization.target_dihedral_deg = 400;
+  wild.margin_voxels = 0;
+  wild.r = 7;  // an open end: left for validate() to refuse with its message
+  clamp_to_ranges(wild);
+  EXPECT_EQ(wild.optimization.max_passes, 0);
+  EXPECT_EQ(wild.optimization.target_dihedral_deg, 35);
+  EXPECT_EQ(wild.margin_voxels, 1);
+  EXPECT_EQ(wild.r, 7);
+  EXPECT_THROW(validate(wild), InputError);
 }
 
 // The user's inputs (issue 5): the command line, File > Open, drag and drop, recent files and

@@ -27,8 +27,8 @@ PhantomMesh mesh_phantom(const Phantom& p, Parameters params = {}) {
   pipe.set_image(std::make_shared<Image>(
       rasterize(p, grid_around(p, {0.6, 0.7, 0.8}, rotation_matrix({1, 2, 2}, 0.5)))));
   pipe.set_parameters(params);
-  pipe.run_through(Stage::mesh);
-  return {compute_quality(pipe.mesh()->mesh), pipe.mesh()->mesh};
+  pipe.run_through(Stage::optimize);
+  return {compute_quality(*pipe.final_mesh()), *pipe.final_mesh()};
 }
 
 void expect_valid(const QualityReport& q) {

@@ -33,7 +33,7 @@ const double kPi = 3.14159265358979323846;
 
 // The stage-5 mesh (stage 6 off): the tests run the optimiser on it themselves.
 std::unique_ptr<Pipeline> mesh_image(std::shared_ptr<const Image> image, Parameters params = {}) {
-  params.optimize = "none";
+  params.optimize = OptimizeMode::none;
   auto pipe = std::make_unique<Pipeline>();
   pipe->set_image(std::move(image));
   pipe->set_parameters(params);

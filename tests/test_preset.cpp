@@ -39,7 +39,7 @@ TEST(Preset, RoundTripThroughAFile) {
   p.r = 0.35;
   p.max_iterations = 17;
   p.seed = 123456789012345ULL;
-  p.optimize = "none";  // not the default
+  p.optimize = OptimizeMode::none;  // not the default
   p.optimization.target_dihedral_deg = 17.5;
   p.optimization.odt_passes = 1;
   p.optimization.boundary_flips = false;

@@ -148,7 +148,7 @@ TEST(SceneData, SnapshotsShareWhatDidNotChange) {
   ASSERT_NE(full->volumes, nullptr);
   ASSERT_NE(full->mesh, nullptr);
   ASSERT_NE(full->quality, nullptr);
-  EXPECT_EQ(full->mesh->mesh.tets.size(), pipe.mesh()->mesh.tets.size());
+  EXPECT_EQ(full->mesh->mesh.tets.size(), pipe.final_mesh()->tets.size());
   EXPECT_EQ(full->mesh->measures[0].size(), full->mesh->mesh.tets.size());
   for (int s = 0; s < kStageCount; ++s) EXPECT_FALSE(full->stale[s]);
   EXPECT_GE(stage_seconds(full->records, Stage::evaluate), 0.0);

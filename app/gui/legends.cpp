@@ -95,7 +95,7 @@ void draw_legends(UiContext& ctx, const ViewRects& rects) {
                   v.clip_enabled ? " (clipped)" : "");
     // Results drawn from before a parameter change say so.
     const auto states = ctx.session.stage_states();
-    if (scene->mesh && states[int(Stage::mesh)] != StageState::done)
+    if (scene->mesh && states[int(Stage::optimize)] != StageState::done)
       ImGui::TextColored(ImVec4(1.0f, 0.7f, 0.25f, 1.0f), "mesh out of date: R re-runs");
     points_key(*scene, points_shown_3d(v, scene->volumes != nullptr, scene->mesh != nullptr),
                false);

@@ -32,10 +32,13 @@ int main(int argc, char** argv) {
   app.add_option("--preset", o.preset, "Load parameters from this JSON preset");
   app.add_flag("--run-all", o.run_all, "Run every stage after opening the image");
   std::string run_through;
-  app.add_option("--run-through", run_through,
-                 "Run the stages up to this one: preprocess, surface, cvt, shallow, mesh, "
-                 "evaluate")
-      ->check(CLI::IsMember({"preprocess", "surface", "cvt", "shallow", "mesh", "evaluate"}));
+  std::vector<std::string> stage_keys;
+  for (int s = 0; s < cvt::kStageCount; ++s)
+    stage_keys.emplace_back(cvt::stage_key(cvt::Stage(s)));
+  std::string stage_list;
+  for (const std::string& k : stage_keys) stage_list += (stage_list.empty() ? "" : ", ") + k;
+  app.add_option("--run-through", run_through, "Run the stages up to this one: " + stage_list)
+      ->check(CLI::IsMember(stage_keys));
   app.add_option("--optimize-passes", o.optimize_passes,
                  "Step stage 6 this many passes at start, one job each (-1: to the end); turns "
                  "optimisation on. With --run-all: stages 1-4, the passes, then the rest")
@@ -137,11 +140,7 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   }
-  if (!run_through.empty()) {
-    static const char* names[] = {"preprocess", "surface", "cvt", "shallow", "mesh", "evaluate"};
-    for (int s = 0; s < cvt::kStageCount; ++s)
-      if (run_through == names[s]) o.run_through = cvt::Stage(s);
-  }
+  if (!run_through.empty()) o.run_through = *cvt::stage_from_key(run_through);
   if (clip >= 0) o.view.clip_enabled = true, o.view.clip_position = clip;
   if (!screenshot.empty())
     o.screenshot = ScreenshotRequest{screenshot, scale, transparent, include_ui};

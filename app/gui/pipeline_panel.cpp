@@ -1,14 +1,17 @@
 // The pipeline panel: job progress and controls, the stages with their state, every parameter
-// (tooltips from parameter_info and the stage-6 option table), the Lloyd stepping controls with
-// the energy and displacement plots, and stage 6's pass-by-pass controls with its history.
+// of the registry (a widget by its type, its label, unit, range and tooltip), the Lloyd
+// stepping controls with the energy and displacement plots, and stage 6's pass-by-pass controls
+// with its history.
 #include <imgui.h>
 
 #include <algorithm>
+#include <cctype>
 #include <cstdio>
 #include <string>
 #include <vector>
 
-#include "parameter_info.h"
+#include "parameter_widgets.h"
+#include "pipeline/parameter_registry.h"
 #include "ui.h"
 
 namespace cvt::gui {
@@ -18,47 +21,7 @@ const ImVec4 kDone{0.45f, 0.85f, 0.45f, 1.0f};
 const ImVec4 kPending{1.0f, 0.7f, 0.25f, 1.0f};
 const ImVec4 kStale{1.0f, 0.4f, 0.4f, 1.0f};
 
-void tooltip(std::string_view key) {
-  if (!ImGui::IsItemHovered()) return;
-  if (const ParameterInfo* info = find_parameter_info(key))
-    ImGui::SetTooltip("%.*s\n(stage: %s)", int(info->tooltip.size()), info->tooltip.data(),
-                      info->stage == Stage::count ? "none" : stage_name(info->stage));
-}
-
-std::string label_of(std::string_view key) {
-  const ParameterInfo* info = find_parameter_info(key);
-  return std::string(info ? info->label : key) + "##" + std::string(key);
-}
-
-// Each widget reports whether it changed the value, so the panel can time the edit.
-bool edit_double(const char* key, double& v, const char* format = "%.4g") {
-  const bool changed = ImGui::InputDouble(label_of(key).c_str(), &v, 0.0, 0.0, format);
-  tooltip(key);
-  return changed;
-}
-bool edit_int(const char* key, int& v) {
-  const bool changed = ImGui::InputInt(label_of(key).c_str(), &v);
-  tooltip(key);
-  return changed;
-}
-bool edit_int64(const char* key, std::int64_t& v) {
-  long long x = v;
-  const bool changed = ImGui::InputScalar(label_of(key).c_str(), ImGuiDataType_S64, &x);
-  if (changed) v = x;
-  tooltip(key);
-  return changed;
-}
-bool edit_bool(const char* key, bool& v) {
-  const bool changed = ImGui::Checkbox(label_of(key).c_str(), &v);
-  tooltip(key);
-  return changed;
-}
-bool edit_slider(const char* key, double& v, double lo, double hi) {
-  const bool changed =
-      ImGui::SliderScalar(label_of(key).c_str(), ImGuiDataType_Double, &v, &lo, &hi, "%.3f");
-  tooltip(key);
-  return changed;
-}
+const ParameterSpec& spec_of(std::string_view key) { return *find_parameter("", key); }
 
 const char* state_text(StageState s) {
   return s == StageState::done ? "done" : s == StageState::pending ? "edited" : "stale";
@@ -81,8 +44,10 @@ bool edit_object_selection(UiContext& ctx) {
   bool changed = false;
   if (scene && scene->image && !scene->image->integer_valued) {
     double iso = p.iso.value_or(0.5 * (scene->value_range.min + scene->value_range.max));
-    if (edit_double("iso", iso)) p.iso = iso, changed = true;
-    changed |= edit_bool("inside_above", p.inside_above);
+    if (ImGui::InputDouble(label_of(spec_of("iso")).c_str(), &iso, 0.0, 0.0, "%.4g"))
+      p.iso = iso, changed = true;
+    tooltip(spec_of("iso"));
+    changed |= edit_parameter(spec_of("inside_above"), p);
     return changed;
   }
   bool all = p.labels.empty();
@@ -93,7 +58,7 @@ bool edit_object_selection(UiContext& ctx) {
       for (const auto& [label, count] : scene->label_counts)
         if (label != 0) p.labels.push_back(label);
   }
-  tooltip("labels");
+  tooltip(spec_of("labels"));
   if (!scene) return changed;
   for (const auto& [label, count] : scene->label_counts) {
     if (label == 0) continue;
@@ -149,30 +114,9 @@ void lloyd_section(UiContext& ctx) {
                    0.0f, FLT_MAX, ImVec2(width, 70));
 }
 
-// Stage 6: its options, stepping pass by pass, and the per-pass history.
-bool optimization_section(UiContext& ctx) {
+// Stage 6: stepping pass by pass, and the per-pass history.
+void optimization_section(UiContext& ctx) {
   Session& s = ctx.session;
-  Parameters& p = s.edited;
-  bool changed = false;
-  bool optimize = p.optimize != "none";
-  if (ImGui::Checkbox(label_of("optimize").c_str(), &optimize))
-    p.optimize = optimize ? "default" : "none", changed = true;
-  tooltip("optimize");
-  OptimizationOptions& o = p.optimization;
-  for (const OptimizationField& f : optimization_fields()) {
-    const std::string label = std::string(f.label) + "##opt_" + std::string(f.key);
-    if (f.real) {
-      changed |= ImGui::InputDouble(label.c_str(), &(o.*f.real), 0.0, 0.0, "%.4g");
-    } else if (f.integer) {
-      changed |= ImGui::InputInt(label.c_str(), &(o.*f.integer));
-    } else if (f.flag) {
-      changed |= ImGui::Checkbox(label.c_str(), &(o.*f.flag));
-    }
-    if (ImGui::IsItemHovered())
-      ImGui::SetTooltip("%.*s\n(stage 6, part of mesh generation)", int(f.tooltip.size()),
-                        f.tooltip.data());
-  }
-  if (changed) clamp(o);
   const bool busy = s.busy();
   const render::SceneData* scene = s.scene();
   ImGui::BeginDisabled(busy || !scene || !scene->image);
@@ -191,10 +135,10 @@ bool optimization_section(UiContext& ctx) {
   const OptimizationResult* r = scene ? scene->optimization.get() : nullptr;
   if (!r || r->history.empty()) {
     ImGui::TextDisabled("no optimisation pass yet");
-    return changed;
+    return;
   }
   const int passes = int(r->history.size()) - 1;
-  const bool finished = scene->parameters.optimize == "default" && !scene->stale[int(Stage::mesh)];
+  const bool finished = !scene->stale[int(Stage::optimize)];
   ImGui::Text("pass %d of at most %d%s, %.2f s; %zu inserted, %zu corners removed", passes,
               scene->parameters.optimization.max_passes, finished ? ", finished" : "", r->wall_s,
               r->inserted_vertices, r->corner_removals);
@@ -206,7 +150,7 @@ bool optimization_section(UiContext& ctx) {
       min_dihedral.push_back(float(ps.min_dihedral_deg));
       bad.push_back(float(ps.below_10));
     }
-  if (min_dihedral.empty()) return changed;
+  if (min_dihedral.empty()) return;
   const float width = ImGui::GetContentRegionAvail().x;
   char overlay[80];
   std::snprintf(overlay, sizeof overlay, "min dihedral %.2f deg (pass 0: %.2f)",
@@ -217,6 +161,35 @@ bool optimization_section(UiContext& ctx) {
                 bad.front());
   ImGui::PlotLines("##below_10", bad.data(), int(bad.size()), 0, overlay, 0.0f, FLT_MAX,
                    ImVec2(width, 60));
+}
+
+// The title of a stage's section: "3 CVT sampling".
+std::string stage_title(Stage st) {
+  std::string name(stage_name(st));
+  name[0] = char(std::toupper(static_cast<unsigned char>(name[0])));
+  return std::to_string(int(st) + 1) + " " + name;
+}
+
+bool is_object_selection(const ParameterSpec& spec) {
+  return spec.section.empty() &&
+         (spec.key == "labels" || spec.key == "iso" || spec.key == "inside_above");
+}
+
+// The parameters of one stage (Stage::count: those of no stage), then the stage's own controls.
+bool stage_section(UiContext& ctx, Stage st) {
+  Parameters& p = ctx.session.edited;
+  const render::SceneData* scene = ctx.session.scene();
+  bool changed = false;
+  if (st == Stage::preprocess) changed |= edit_object_selection(ctx);
+  for (const ParameterSpec& spec : parameter_registry()) {
+    if (spec.stage != st || is_object_selection(spec)) continue;
+    changed |= edit_parameter(spec, p);
+    if (spec.key == "interior_spacing_mm" && scene && scene->default_interior_spacing_mm > 0 &&
+        p.interior_spacing_mm == 0)
+      ImGui::TextDisabled("auto spacing: %.3g mm", scene->default_interior_spacing_mm);
+  }
+  if (st == Stage::cvt) lloyd_section(ctx);
+  if (st == Stage::optimize) optimization_section(ctx);
   return changed;
 }
 
@@ -269,7 +242,7 @@ void draw_pipeline_panel(UiContext& ctx) {
     for (int st = 0; st < kStageCount; ++st) {
       ImGui::TableNextRow();
       ImGui::TableNextColumn();
-      ImGui::Text("%d %s", st + 1, stage_name(Stage(st)));
+      ImGui::Text("%d %s", st + 1, std::string(stage_name(Stage(st))).c_str());
       ImGui::TableNextColumn();
       ImGui::TextColored(state_color(states[st]), "%s", state_text(states[st]));
       ImGui::TableNextColumn();
@@ -288,53 +261,21 @@ void draw_pipeline_panel(UiContext& ctx) {
     ImGui::PopStyleColor();
   }
 
-  Parameters& p = s.edited;
   bool changed = false;
   ImGui::PushItemWidth(120);
-  if (stage_header("1 Preprocess", states[0])) {
-    changed |= edit_object_selection(ctx);
-    changed |= edit_int("margin_voxels", p.margin_voxels);
-    changed |= edit_bool("remove_small_components", p.remove_small_components);
-    changed |= edit_double("min_component_fraction", p.min_component_fraction);
-    changed |= edit_bool("fill_cavities", p.fill_cavities);
-    changed |= edit_double("smoothing_sigma_mm", p.smoothing_sigma_mm);
-    changed |= edit_double("medial_min_separation_mm", p.medial_min_separation_mm);
-    changed |= edit_double("medial_min_angle_deg", p.medial_min_angle_deg);
-    changed |= edit_double("lfs_min_mm", p.lfs_min_mm);
-    changed |= edit_double("lfs_max_mm", p.lfs_max_mm);
+  for (int st = 0; st < kStageCount; ++st) {
+    const bool has_parameters =
+        std::any_of(parameter_registry().begin(), parameter_registry().end(),
+                    [&](const ParameterSpec& spec) { return spec.stage == Stage(st); });
+    if (has_parameters && stage_header(stage_title(Stage(st)).c_str(), states[st]))
+      changed |= stage_section(ctx, Stage(st));
   }
-  if (stage_header("2 Surface sampling", states[1])) {
-    changed |= edit_slider("r", p.r, 0.05, 0.95);
-    changed |= edit_double("sigma_surface_mm", p.sigma_surface_mm);
-    changed |= edit_bool("project_samples", p.project_samples);
-  }
-  if (stage_header("3 CVT sampling", states[2])) {
-    changed |= edit_double("sigma_density_mm", p.sigma_density_mm);
-    changed |= edit_double("interior_spacing_mm", p.interior_spacing_mm);
-    if (scene && scene->default_interior_spacing_mm > 0 && p.interior_spacing_mm == 0)
-      ImGui::TextDisabled("auto spacing: %.3g mm", scene->default_interior_spacing_mm);
-    changed |= edit_int64("interior_points", p.interior_points);
-    changed |= edit_double("epsilon_mm", p.epsilon_mm);
-    changed |= edit_int("max_iterations", p.max_iterations);
-    long long seed = (long long)p.seed;
-    if (ImGui::InputScalar(label_of("seed").c_str(), ImGuiDataType_S64, &seed))
-      p.seed = std::uint64_t(std::max(0LL, seed)), changed = true;
-    tooltip("seed");
-    lloyd_section(ctx);
-  }
-  if (stage_header("5 Mesh generation", states[int(Stage::mesh)])) {
-    changed |= edit_int("fidelity_rounds", p.fidelity_rounds);
-    changed |= edit_double("fidelity_tolerance_mm", p.fidelity_tolerance_mm);
-  }
-  if (stage_header("6 Optimisation (in mesh generation)", states[int(Stage::mesh)]))
-    changed |= optimization_section(ctx);
-  if (ImGui::CollapsingHeader("Other (threads, guards)")) {
-    changed |= edit_int("threads", p.threads);
-    changed |= edit_int64("max_points", p.max_points);
-    changed |= edit_double("max_memory_mb", p.max_memory_mb);
-  }
+  if (ImGui::CollapsingHeader("Other (threads, guards)")) changed |= stage_section(ctx, Stage::count);
   ImGui::PopItemWidth();
-  if (changed) s.parameters_edited(ctx.ui.now_s);
+  if (changed) {
+    clamp_to_ranges(s.edited);
+    s.parameters_edited(ctx.ui.now_s);
+  }
   ImGui::End();
 }
 

@@ -2,6 +2,7 @@
 
 #include "io/image_io.h"
 #include "io/mesh_io.h"
+#include "pipeline/parameter_registry.h"
 #include "pipeline/preset.h"
 
 namespace cvt::gui {
@@ -48,7 +49,7 @@ std::function<void(JobContext&)> Session::applying(std::function<void(JobContext
 }
 
 void Session::submit_stage(Stage s) {
-  worker_.submit(stage_name(s), applying([s](JobContext& ctx) {
+  worker_.submit(std::string(stage_name(s)), applying([s](JobContext& ctx) {
                    ctx.pipeline.run_through(s, ctx.progress);
                  }));
 }
@@ -65,7 +66,7 @@ void Session::run_all() {
 void Session::rerun_stale() {
   const auto stages = stages_to_rerun(stage_states(), target_);
   if (stages.empty() && edits_pending()) {
-    // Only parameters that no stage depends on changed (threads, optimise): apply them.
+    // Only parameters that no stage depends on changed (threads, the guards): apply them.
     submit_stage(Stage::preprocess);
     return;
   }
@@ -93,9 +94,9 @@ void Session::step_lloyd(int iterations) {
 }
 
 void Session::step_optimization(int passes) {
-  target_ = std::max(target_, Stage::mesh);
-  if (edited.optimize != "default") {
-    edited.optimize = "default";
+  target_ = std::max(target_, Stage::optimize);
+  if (edited.optimize != OptimizeMode::standard) {
+    edited.optimize = OptimizeMode::standard;
     message(false, "optimisation turned on (optimize = default)");
   }
   const int jobs = passes < 0 ? std::max(edited.optimization.max_passes, 1) : passes;
@@ -111,13 +112,13 @@ void Session::cancel() {
 
 void Session::export_mesh(const std::string& path) {
   worker_.submit("export " + path, [path](JobContext& ctx) {
-    const MeshGenerationResult* mesh = ctx.pipeline.mesh();
+    const TetMesh* mesh = ctx.pipeline.final_mesh();
     if (!mesh) throw InputError("no mesh to export yet: run mesh generation first");
     ctx.progress("writing " + path, 0.0);
     MeshWriteOptions options;
     for (Measure m : kShewchukMeasures)
-      options.cell_data.push_back({std::string(measure_key(m)), tet_measure(mesh->mesh, m)});
-    write_mesh(mesh->mesh, path, options);
+      options.cell_data.push_back({std::string(measure_key(m)), tet_measure(*mesh, m)});
+    write_mesh(*mesh, path, options);
   });
 }
 

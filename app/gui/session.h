@@ -39,7 +39,7 @@ class Session {
   void step_lloyd(int iterations);  // < 0: to convergence
   // Stage 6 pass by pass, one job per pass so the views follow each one: `passes` jobs (< 0:
   // as many as edited.optimization.max_passes; those after the last useful pass do nothing).
-  // Turns optimisation on (edited.optimize = "default"): stepping it means using it.
+  // Turns optimisation on (edited.optimize = standard): stepping it means using it.
   void step_optimization(int passes);
   void cancel();
   void export_mesh(const std::string& path);

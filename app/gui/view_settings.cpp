@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "pipeline/parameter_registry.h"
+
 namespace cvt::gui {
 
 bool parse_view_mode(const std::string& text, ViewMode& out) {
@@ -43,11 +45,7 @@ int effective_slice_index(const ViewSettings& view, const render::SceneData& sce
 
 Stage first_edited_stage(const render::SceneData* scene, const Parameters& edited) {
   if (!scene) return Stage::count;
-  const Stage changed = first_changed_stage(scene->parameters, edited);
-  if (changed == Stage::count && edited.optimize == "default" &&
-      scene->parameters.optimization != edited.optimization)
-    return Stage::mesh;
-  return changed;
+  return first_changed_stage(scene->parameters, edited);
 }
 
 std::array<StageState, kStageCount> stage_states(const render::SceneData* scene,

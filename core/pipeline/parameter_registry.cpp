@@ -84,6 +84,7 @@ std::vector<ParameterSpec> make_registry() {
       // σ only scales the energies of eq. (3); Algorithm 1's order depends on h² − r²·lfs²
       // alone, so it changes no result.
       {.key = "sigma_surface_mm", .cli = "sigma-surface", .label = "σ surface", .unit = "mm",
+       .stage = S::surface, .changes_no_result = true,
        .tooltip = "σ of the surface sampling energy (eq. 3, mm); it scales the energies only, "
                   "so the samples do not depend on it.",
        .lo = 0, .lo_open = true, .ref = top<&P::sigma_surface_mm>},
@@ -328,6 +329,20 @@ void validate(const Parameters& p) {
           "must not be below lfs_min_mm");
 }
 
+void clamp_to_ranges(Parameters& p) {
+  for (const ParameterSpec& spec : parameter_registry())
+    visit_parameter(spec, p, [&](auto& v) {
+      using T = std::decay_t<decltype(v)>;
+      if constexpr (std::is_same_v<T, double> || is_integer_v<T>) {
+        const double before = double(v);
+        double x = std::isfinite(before) ? before : spec.lo;
+        if (!spec.lo_open && x < spec.lo) x = spec.lo;
+        if (!spec.hi_open && x > spec.hi) x = spec.hi;
+        if (x != before && std::isfinite(x)) v = T(x);  // (unchanged values keep every bit)
+      }
+    });
+}
+
 void validate(const OptimizationOptions& options) {
   Parameters p;
   p.optimization = options;
@@ -338,7 +353,7 @@ void validate(const OptimizationOptions& options) {
 Stage first_changed_stage(const Parameters& a, const Parameters& b) {
   Stage first = Stage::count;
   for (const ParameterSpec& spec : parameter_registry())
-    if (spec.stage < first && !same_value(spec, a, b)) first = spec.stage;
+    if (stales_from(spec) < first && !same_value(spec, a, b)) first = stales_from(spec);
   return first;
 }
 

@@ -29,9 +29,9 @@ struct ParameterSpec {
   std::string_view cli;      // command-line option, without "--"
   std::string_view label;    // the viewer's label, without the unit
   std::string_view unit;     // "mm", "voxels", "°", "MB", or "" (counts, ratios, switches)
-  // The first stage whose result it changes; Stage::count: it changes no result (threads, the
-  // guards, σ surface), so changing it re-runs nothing.
+  // The stage it belongs to; Stage::count: none (threads, the guards).
   Stage stage = Stage::count;
+  bool changes_no_result = false;  // so changing it re-runs nothing (σ surface)
   std::string_view tooltip;  // meaning (and what 0 means, where it is special)
   // Range of a number (integers, reals, iso), open or closed at each end.
   double lo = -std::numeric_limits<double>::infinity();
@@ -73,9 +73,16 @@ void copy_value(const ParameterSpec& spec, const Parameters& from, Parameters& t
 
 // Throws InputError "KEY: must be ..." for the first value out of its range.
 void validate(const Parameters& parameters);
+// Brings every number into its range where that end is closed (the viewer's fields); open
+// ends are left to validate().
+void clamp_to_ranges(Parameters& parameters);
 // The range's text, e.g. "must be in (0, 1)" or "must be >= 0 (0 = auto)".
 std::string range_text(const ParameterSpec& spec);
 
+// The first stage whose result a change of the parameter makes stale (Stage::count: none).
+inline Stage stales_from(const ParameterSpec& spec) {
+  return spec.changes_no_result ? Stage::count : spec.stage;
+}
 // The first stage whose result depends on a parameter that differs (Stage::count if none).
 Stage first_changed_stage(const Parameters& a, const Parameters& b);
 

@@ -229,7 +229,7 @@ int Pipeline::step_optimization(int k, const Progress& progress) {
   invalidate_from(Stage::evaluate);
   const auto t0 = std::chrono::steady_clock::now();
   const int done = optimize_passes(k, progress);
-  record(std::string(stage_name(Stage::optimize)),
+  record("optimisation passes",
          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   done_[int(Stage::optimize)] = !optimizer_;
   return done;

@@ -41,7 +41,8 @@ struct OptimizedMesh {
 };
 
 struct StageRecord {
-  std::string name;  // stage_name, or a part of a stage ("quality", "fidelity")
+  std::string name;  // stage_name, or a part of a stage ("quality", "fidelity", "optimisation
+                     // passes" when stepped)
   double wall_s = 0;
   double peak_rss_mb = 0;  // process peak so far, when the stage ended
 };
