@@ -1,5 +1,5 @@
-// Finding the next run boundary in a byte array (a mask row, or a per-sample flag array) eight
-// bytes at a time. Internal to the distance transform.
+// Finding the next run boundary in a mask row eight bytes at a time: the distance transform's
+// pass i walks each row run by run. Internal to the distance transform.
 #pragma once
 
 #include <cstdint>

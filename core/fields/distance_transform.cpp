@@ -1,14 +1,14 @@
 // Separable exact EDT with feature transform. Pass i finds the nearest feature in each row, run
 // by run; passes j and k take, for every line, the lower envelope of the parabolas
 // f(q) + ((p − q)·spacing)² (Felzenszwalb & Huttenlocher 2012 — the same partial Voronoi
-// diagrams as Maurer et al. 2003), carrying along the feature index of each parabola.
+// diagrams as Maurer et al. 2003), carrying along the feature index of each parabola. Without
+// the feature transform the same code runs with the index bookkeeping compiled out, so the
+// distances are bitwise the same either way.
 //
 // Passes i and j are fused per k-slice, so pass j finds the slice still in cache. The strided j
 // and k lines are processed in tiles of kTileWidth adjacent lines, copied in and out by
 // contiguous row pieces rather than one strided element at a time. Lines are independent, so
-// the result does not depend on how TBB splits them among threads. Without the feature
-// transform, passes j and k search 16 lines at once in float instead (distance_min_plus.h),
-// where AVX2 or AVX-512 is available.
+// the result does not depend on how TBB splits them among threads.
 #include "fields/distance_transform.h"
 
 #include <tbb/blocked_range.h>
@@ -17,16 +17,14 @@
 
 #include <algorithm>
 #include <array>
-#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <limits>
 #include <string>
 #include <vector>
 
-#include "fields/byte_runs.h"
-#include "fields/distance_min_plus.h"
 #include "base/errors.h"
+#include "fields/byte_runs.h"
 
 #ifdef __linux__
 #include <sys/mman.h>
@@ -40,9 +38,9 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 // (TLB) miss of each strided k row, while a 32 × 1000 tile of values + indices stays in L2.
 constexpr int kTileWidth = 32;
 
-// The envelope code is compiled twice on x86-64 GCC: for the baseline (SSE2) and for AVX2, picked
-// at load time. The VEX three-operand forms save ~10% of the instructions (register copies); no
-// FMA is enabled, so both versions round identically and give bitwise the same results.
+// The envelope code is compiled twice on x86-64 GCC, for the baseline (SSE2) and for AVX2, and
+// the version is picked at load time: AVX2's three-operand forms need fewer register copies. No
+// contraction into fused multiply-adds (core/CMakeLists.txt), so both round identically.
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
 #define CVT_ENVELOPE_CLONES __attribute__((target_clones("avx2", "default")))
 #define CVT_INLINE_IN_CLONES __attribute__((always_inline)) inline
@@ -61,9 +59,8 @@ struct Scratch {
   std::vector<double> site, site_f, site_F, rise, run;
   std::vector<std::int32_t> site_index;
   std::vector<int> ends_at;  // fill: how many intervals end just before each sample
-  detail::MinPlusScratch dnc;  // the distance-only path's
 
-  explicit Scratch(const std::array<int, 3>& dims) : dnc(dims) {
+  explicit Scratch(const std::array<int, 3>& dims) {
     const int longest = std::max({dims[0], dims[1], dims[2]});
     tile_value.resize(std::size_t(kTileWidth) * std::max(dims[1], dims[2]));
     tile_index.resize(tile_value.size());
@@ -161,9 +158,9 @@ bool is_zero(const float* v) {
 // One line of n samples of a tile (kTileWidth apart), squared spacing w:
 //   value[p] ← min_q value[q] + w·(p − q)²,  index[p] ← index[argmin q].
 // +inf samples hold no feature. Ties (as far as double arithmetic resolves them) keep the lower
-// q. The envelope arithmetic is in double; the stored value is then f_q + float(w·(p − q)²), a
-// float sum, as the distance-only search evaluates its candidates: at the same minimiser both
-// give the same bits.
+// q. The envelope arithmetic is in double; the stored value is then the float sum
+// f_q + float(w·(p − q)²). That rounding is part of the result: the medial axis, and with it
+// the mesh, follows these exact bits.
 //
 // A zero sample is a feature voxel: it keeps its value and index, and no parabola beyond it can
 // win on its other side (f_r + w·(p − r)² > w·(p − q)² when r < q < p). So zeros cut the line into
@@ -255,9 +252,7 @@ void copy_row(const T* from, int width, T* to) {
 template <bool kNearest>
 CVT_ENVELOPE_CLONES void envelope_tile(float* value, std::int32_t* index, std::size_t first,
                                        int width, int n, std::size_t stride, double w,
-                                       const double* w_q2, const float* w_d2, Scratch& s) {
-  if constexpr (!kNearest)
-    if (detail::min_plus(value, first, stride, width, n, w, w_d2, s.dnc)) return;
+                                       const double* w_q2, Scratch& s) {
   float* tv = s.tile_value.data();
   std::int32_t* ti = s.tile_index.data();
   for (int q = 0; q < n; ++q) {
@@ -283,11 +278,6 @@ void transform(const Mask& features, float* value, std::int32_t* index, const Pr
   std::vector<double> wy_q2(ny), wz_q2(nz);  // w·q², the envelope test's form of the position
   for (int q = 0; q < ny; ++q) wy_q2[q] = wy * double(q) * double(q);
   for (int q = 0; q < nz; ++q) wz_q2[q] = wz * double(q) * double(q);
-  // (w·d)·d for d = −(n − 1) … n + 2 (the search's guard rows), exactly the stack code's w·d·d
-  // for a signed distance of d samples; the pointers passed on are to d = 0.
-  std::vector<float> wy_d2(2 * std::size_t(ny) + 3), wz_d2(2 * std::size_t(nz) + 3);
-  for (int d = 1 - ny; d < ny + 3; ++d) wy_d2[d + ny] = float(wy * double(d) * double(d));
-  for (int d = 1 - nz; d < nz + 3; ++d) wz_d2[d + nz] = float(wz * double(d) * double(d));
   const std::size_t slice = std::size_t(nx) * std::size_t(ny);
   const int tiles_per_row = (nx + kTileWidth - 1) / kTileWidth;
   tbb::enumerable_thread_specific<Scratch> scratch(features.grid.dims);
@@ -308,7 +298,7 @@ void transform(const Mask& features, float* value, std::int32_t* index, const Pr
       for (int t = 0; t < tiles_per_row; ++t) {
         const int i0 = t * kTileWidth;
         envelope_tile<kNearest>(value, index, slice_start + i0, std::min(kTileWidth, nx - i0), ny,
-                                nx, wy, wy_q2.data(), wy_d2.data() + ny, s);
+                                nx, wy, wy_q2.data(), s);
       }
     }
   });
@@ -322,8 +312,7 @@ void transform(const Mask& features, float* value, std::int32_t* index, const Pr
           progress.check_cancelled();
           const int j = t / tiles_per_row, i0 = (t % tiles_per_row) * kTileWidth;
           envelope_tile<kNearest>(value, index, std::size_t(j) * nx + i0,
-                                  std::min(kTileWidth, nx - i0), nz, slice, wz, wz_q2.data(), wz_d2.data() + nz,
-                                  s);
+                                  std::min(kTileWidth, nx - i0), nz, slice, wz, wz_q2.data(), s);
         }
       });
 }

@@ -17,8 +17,9 @@ struct FeatureTransform {
 
 // Features are the voxels where `features` is non-zero. Distances use features.grid.spacing.
 // Ties between equidistant features are broken deterministically (independent of threads).
-// compute_nearest=false skips the feature volume (its data is then left empty). Checks
-// progress for a cancel every k-slice and every tile of lines (throws Cancelled).
+// compute_nearest=false skips the feature volume (its data is then left empty); the distances
+// are bitwise the same either way. Checks progress for a cancel every k-slice and every tile of
+// lines (throws Cancelled).
 FeatureTransform compute_feature_transform(const Mask& features, bool compute_nearest = true,
                                            const Progress& progress = {});
 
