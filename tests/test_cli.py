@@ -240,7 +240,7 @@ class BadInput(unittest.TestCase):
     def test_truncated_nii_gz(self):
         # A real image cut in half, written by our own phantom tool.
         good = self.path("torus.nii.gz")
-        phantom = os.path.join(os.path.dirname(CVTMESH), "cvtmesh-phantom")
+        phantom = os.environ.get("CVTMESH_PHANTOM", "build/tests/phantoms/cvtmesh-phantom")
         subprocess.run([phantom, "torus", "-o", good], check=True)
         with open(good, "rb") as f:
             data = f.read()

@@ -4,8 +4,6 @@
 #include <stdexcept>
 #include <string>
 
-#include "io/mesh_io.h"
-
 namespace cvt {
 
 std::vector<std::int64_t> face_neighbours(std::size_t num_vertices, const std::vector<Tet>& tets) {
@@ -59,8 +57,6 @@ std::vector<std::int64_t> face_neighbours(std::size_t num_vertices, const std::v
   return neighbour;
 }
 
-namespace detail {
-
 std::vector<std::int64_t> boundary_faces(const TetMesh& mesh) {
   const std::vector<std::int64_t> neighbour = face_neighbours(mesh.vertices.size(), mesh.tets);
 
@@ -72,10 +68,8 @@ std::vector<std::int64_t> boundary_faces(const TetMesh& mesh) {
   return result;
 }
 
-}  // namespace detail
-
 std::vector<Triangle> boundary_triangles(const TetMesh& mesh) {
-  const std::vector<std::int64_t> faces = detail::boundary_faces(mesh);
+  const std::vector<std::int64_t> faces = boundary_faces(mesh);
   std::vector<Triangle> triangles;
   triangles.reserve(faces.size());
   for (std::int64_t f : faces) triangles.push_back(outward_faces(mesh.tets[f / 4])[f % 4]);

@@ -38,5 +38,8 @@ std::vector<std::int64_t> face_neighbours(std::size_t vertex_count, const std::v
 
 // Faces used by exactly one tet, oriented outward (the mesh's boundary surface).
 std::vector<Triangle> boundary_triangles(const TetMesh& mesh);
+// The boundary faces as (tet index × 4 + face index into outward_faces(tet)), in the order
+// boundary_triangles() returns them, so writers can give a triangle the label of its tet.
+std::vector<std::int64_t> boundary_faces(const TetMesh& mesh);
 
 }  // namespace cvt

@@ -49,11 +49,7 @@ TetMesh read_mesh(const std::string& path);
 const std::vector<std::string>& mesh_write_extensions();
 const std::vector<std::string>& mesh_read_extensions();
 
-namespace detail {  // shared by mesh_io.cpp, mesh_writers.cpp, mesh_readers.cpp and tet_mesh.cpp
-
-// The boundary faces as (tet index × 4 + face index into outward_faces(tet)), in the order
-// boundary_triangles() returns them, so writers can give a triangle the label of its tet.
-std::vector<std::int64_t> boundary_faces(const TetMesh& mesh);
+namespace detail {  // shared by mesh_io.cpp, mesh_writers.cpp and mesh_readers.cpp
 
 // Buffered output to a temp file beside `path`; commit() renames it onto `path`. Destroyed
 // without commit (an exception, an early return) it deletes the temp file.
