@@ -191,25 +191,6 @@ struct Scratch {
   std::vector<std::int64_t> acc;    // per candidate: Σw, Σw·i, Σw·j, Σw·k
 };
 
-// Keeps the compiler from fusing a·a + b into one FMA (a single rounding): every code path —
-// each instruction set, the scalar owners_from_index — then rounds identically, so ties between
-// equidistant sites resolve the same way everywhere. Costs no instruction.
-template <class T>
-[[gnu::always_inline]] inline void keep_rounded(T& v) {
-#if defined(__x86_64__) || defined(__i386__)
-  asm("" : "+x"(v));  // any SSE/AVX register
-#elif defined(__aarch64__)
-  asm("" : "+w"(v));  // any SIMD/FP register
-#else
-  asm("" : "+m"(v));  // through memory: slower, still exact
-#endif
-}
-inline double square(double a) {
-  double p = a * a;
-  keep_rounded(p);
-  return p;
-}
-
 typedef double V2 __attribute__((vector_size(16)));
 typedef double V4 __attribute__((vector_size(32)));
 typedef std::int64_t M2 __attribute__((vector_size(16)));
@@ -231,9 +212,7 @@ template <class V, class M>
     std::memcpy(&cy, &c.y[q], sizeof(V));
     std::memcpy(&cz, &c.z[q], sizeof(V));
     const V dy = y - cy, dz = z - cz;
-    V dy2 = dy * dy, dz2 = dz * dz;
-    keep_rounded(dy2), keep_rounded(dz2);
-    const V e = dy2 + dz2;
+    const V e = dy * dy + dz * dz;
     std::memcpy(cyz + q, &e, sizeof(V));
   }
   V x[P], best[P], arg[P];
@@ -247,9 +226,7 @@ template <class V, class M>
     const V qd = V{} + double(q);
     for (int p = 0; p < P; ++p) {
       const V dx = x[p] - cx;
-      V dx2 = dx * dx;
-      keep_rounded(dx2);
-      const V d = dx2 + e;
+      const V d = dx * dx + e;
       const M closer = d < best[p];
       best[p] = V((M(d) & closer) | (M(best[p]) & ~closer));
       arg[p] = V((M(qd) & closer) | (M(arg[p]) & ~closer));
@@ -261,27 +238,23 @@ template <class V, class M>
   }
 }
 
-// One version per instruction set, picked once at start-up (x86: AVX2 or the SSE2 baseline;
-// elsewhere the 2-lane version). An AVX-512 version (one register per row) measured 5–10 %
-// slower than AVX2 on the liver, so there is none.
-using RowKernel = void (*)(const double*, double, double, const Candidates&, double*, double*,
-                           double*);
-void row_baseline(const double* xs, double y, double z, const Candidates& c, double* cyz, double* b,
-                  double* a) {
-  row_kernel<V2, M2>(xs, y, z, c, cyz, b, a);
+// One version per instruction set; GCC picks one at load time (function multiversioning). The
+// two widths differ because GCC 12 scalarises comparisons on vectors wider than the target's, so
+// a 4-lane kernel compiled for the SSE2 baseline would be scalar code. An AVX-512 version (one
+// register per row) measured 5–10 % slower than AVX2 on the liver, so there is none.
+#if defined(__x86_64__) || defined(__i386__)
+[[gnu::target("default")]]
+#endif
+void nearest_in_row(const double* xs, double y, double z, const Candidates& c, double* cyz,
+                    double* best, double* arg) {
+  row_kernel<V2, M2>(xs, y, z, c, cyz, best, arg);
 }
 #if defined(__x86_64__) || defined(__i386__)
-__attribute__((target("avx2"))) void row_avx2(const double* xs, double y, double z,
-                                              const Candidates& c, double* cyz, double* b,
-                                              double* a) {
-  row_kernel<V4, M4>(xs, y, z, c, cyz, b, a);
+[[gnu::target("avx2")]] void nearest_in_row(const double* xs, double y, double z,
+                                            const Candidates& c, double* cyz, double* best,
+                                            double* arg) {
+  row_kernel<V4, M4>(xs, y, z, c, cyz, best, arg);
 }
-const RowKernel nearest_in_row = [] {
-  __builtin_cpu_init();
-  return __builtin_cpu_supports("avx2") ? &row_avx2 : &row_baseline;
-}();
-#else
-const RowKernel nearest_in_row = &row_baseline;
 #endif
 
 // Nearest candidate for every slot of a brick, row by row; rows without object voxels skipped.
@@ -657,7 +630,7 @@ std::vector<std::int32_t> owners_from_index(const Grid& g, const SiteIndex& inde
       int arg = 0;
       for (int q = 0; q < c.size(); ++q) {
         const double dx = x.x - c.x[q], dy = x.y - c.y[q], dz = x.z - c.z[q];
-        const double d = square(dx) + (square(dy) + square(dz));
+        const double d = dx * dx + (dy * dy + dz * dz);
         if (d < best) best = d, arg = q;
       }
       owners[order[v].second] = c.id[arg];
