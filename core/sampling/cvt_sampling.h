@@ -63,7 +63,7 @@ struct IterationStats {
   double wall_s = 0;
 };
 
-class SiteIndex;  // uniform bucket grid of sites (cvt_sampling.cpp)
+class PointGrid;  // the sites, bucketed (base/point_grid.h)
 
 // Stateful Lloyd solver the CLI and the viewer share (the viewer runs it on a worker thread; it
 // is not itself thread-safe). Deterministic: same input + seed → identical sites, whatever the
@@ -113,7 +113,7 @@ class LloydStepper {
   void set_sites(std::vector<Vec3> local);
   // Nearest candidate of every slot of brick b (fills scratch; see cvt_sampling.cpp).
   template <class Scratch>
-  void assign_brick(std::size_t b, const SiteIndex& index, Scratch& scratch) const;
+  void assign_brick(std::size_t b, const PointGrid& index, Scratch& scratch) const;
   bool inside(int i, int j, int k) const;
 
   Grid grid_;
