@@ -73,13 +73,7 @@ PointGrid::PointGrid(const std::vector<Vec3>& points, const Vec3& lo, const Vec3
 }
 
 bool PointGrid::any_within(const Vec3& c, double radius) const {
-  std::array<int, 3> c0, c1;
-  cells_around(c, radius, c0, c1);
-  const double r2 = radius * radius;
-  return find_in_cells(c0, c1, [&](std::int32_t at) {
-    const double dx = x_[at] - c.x, dy = y_[at] - c.y, dz = z_[at] - c.z;
-    return dx * dx + dy * dy + dz * dz < r2;
-  });
+  return any_within(c, radius, [](std::int32_t) { return true; });
 }
 
 }  // namespace cvt

@@ -36,8 +36,11 @@ class PointGrid {
   // Calls f(index, squared distance) for every point strictly within `radius` of c.
   template <class F>
   void for_each_within(const Vec3& c, double radius, F&& f) const;
-  // Whether some point lies strictly within `radius` of c.
+  // Whether some point lies strictly within `radius` of c; with `keep`, one whose index i has
+  // keep(i).
   bool any_within(const Vec3& c, double radius) const;
+  template <class Keep>
+  bool any_within(const Vec3& c, double radius, Keep&& keep) const;
 
   // For queries with their own filter. Points are addressed by their position `at` in storage
   // order: index(at) is the point's index in the input, x(at), y(at), z(at) its coordinates.
@@ -117,6 +120,17 @@ void PointGrid::for_each_within(const Vec3& c, double radius, F&& f) const {
     const double dx = x_[at] - c.x, dy = y_[at] - c.y, dz = z_[at] - c.z;
     const double d2 = dx * dx + dy * dy + dz * dz;
     if (d2 < r2) f(id_[at], d2);
+  });
+}
+
+template <class Keep>
+bool PointGrid::any_within(const Vec3& c, double radius, Keep&& keep) const {
+  std::array<int, 3> c0, c1;
+  cells_around(c, radius, c0, c1);
+  const double r2 = radius * radius;
+  return find_in_cells(c0, c1, [&](std::int32_t at) {
+    const double dx = x_[at] - c.x, dy = y_[at] - c.y, dz = z_[at] - c.z;
+    return dx * dx + dy * dy + dz * dz < r2 && keep(id_[at]);
   });
 }
 
