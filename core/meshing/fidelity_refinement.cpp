@@ -8,9 +8,9 @@
 #include <atomic>
 #include <cmath>
 #include <cstdint>
-#include <unordered_map>
 #include <utility>
 
+#include "base/point_grid.h"
 #include "fields/smoothing.h"
 #include "sampling/surface_sampling.h"
 
@@ -20,36 +20,23 @@ namespace {
 double largest(const Vec3& v) { return std::max({v.x, v.y, v.z}); }
 double smallest(const Vec3& v) { return std::min({v.x, v.y, v.z}); }
 
-// Points kept at least `spacing` apart, looked up in a hash grid of cells that size.
-class SpacedPoints {
- public:
-  explicit SpacedPoints(double spacing) : spacing_(spacing) {}
-  bool has_neighbour(const Vec3& p) const {
-    const auto c = cell(p);
-    for (int dz = -1; dz <= 1; ++dz)
-      for (int dy = -1; dy <= 1; ++dy)
-        for (int dx = -1; dx <= 1; ++dx) {
-          const auto it = cells_.find(key({c[0] + dx, c[1] + dy, c[2] + dz}));
-          if (it == cells_.end()) continue;
-          for (const Vec3& q : it->second)
-            if (squared_distance(p, q) < spacing_ * spacing_) return true;
-        }
-    return false;
+// The candidates, in order, that lie at least `spacing` from every point of `existing` and from
+// every candidate kept before them.
+std::vector<Vec3> keep_spaced(const std::vector<Vec3>& candidates,
+                              const std::vector<Vec3>& existing, double spacing) {
+  const PointGrid old_points(existing, spacing), new_points(candidates, spacing);
+  std::vector<char> kept(candidates.size(), 0);
+  std::vector<Vec3> out;
+  for (std::size_t n = 0; n < candidates.size(); ++n) {
+    const Vec3& p = candidates[n];
+    if (old_points.any_within(p, spacing) ||
+        new_points.any_within(p, spacing, [&](std::int32_t q) { return kept[q] != 0; }))
+      continue;
+    kept[n] = 1;
+    out.push_back(p);
   }
-  void add(const Vec3& p) { cells_[key(cell(p))].push_back(p); }
-
- private:
-  std::array<std::int64_t, 3> cell(const Vec3& p) const {
-    return {std::int64_t(std::floor(p.x / spacing_)), std::int64_t(std::floor(p.y / spacing_)),
-            std::int64_t(std::floor(p.z / spacing_))};
-  }
-  static std::uint64_t key(const std::array<std::int64_t, 3>& c) {
-    return (std::uint64_t(c[0]) * 73856093ULL) ^ (std::uint64_t(c[1]) * 19349663ULL) ^
-           (std::uint64_t(c[2]) * 83492791ULL);
-  }
-  double spacing_;
-  std::unordered_map<std::uint64_t, std::vector<Vec3>> cells_;
-};
+  return out;
+}
 
 // Whether a voxel of the mesh boundary (one whose state differs from a 6-neighbour's) lies
 // within a radius of a voxel. Only the few voxels where mesh and object disagree ask, so a
@@ -159,8 +146,6 @@ FidelityFix find_fidelity_fix(const Mask& mesh_inside, const PreprocessResult& p
   const Mask& object = pre.object;
   const Grid& grid = object.grid;
   FidelityFix fix;
-  SpacedPoints spaced(spacing_mm);
-  for (const Vec3& p : existing) spaced.add(p);
   // A new surface sample where the object boundary is nearest to voxel v: between v and its
   // nearest opposite voxel, on the indicator's 0.5 level.
   auto add_sample_near = [&](std::size_t v) {
@@ -169,10 +154,7 @@ FidelityFix find_fidelity_fix(const Mask& mesh_inside, const PreprocessResult& p
     const auto a = grid.ijk(v), b = grid.ijk(std::size_t(u));
     Vec3 index{0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2])};
     if (!project_to_level_set(pre.indicator, 0.5f, index, 1.5)) return;
-    const Vec3 world = grid.index_to_world(index);
-    if (spaced.has_neighbour(world)) return;
-    spaced.add(world);
-    fix.samples.push_back(world);
+    fix.samples.push_back(grid.index_to_world(index));  // spaced out before returning
   };
   for (std::size_t e = 0; e < exposed_interior.size(); ++e) {
     const Vec3 index = grid.world_to_index(exposed_interior[e]);
@@ -186,7 +168,10 @@ FidelityFix find_fidelity_fix(const Mask& mesh_inside, const PreprocessResult& p
   }
   bool any = false;
   for (std::size_t v = 0; v < object.size() && !any; ++v) any = mesh_inside.data[v] != object.data[v];
-  if (!any) return fix;
+  if (!any) {
+    fix.samples = keep_spaced(fix.samples, existing, spacing_mm);
+    return fix;
+  }
   // How far each voxel is from the object boundary we know already; from the mesh boundary,
   // the probe tells whether it is within the tolerance.
   const MeshBoundaryProbe mesh_boundary(mesh_inside, tolerance_mm);
@@ -202,6 +187,7 @@ FidelityFix find_fidelity_fix(const Mask& mesh_inside, const PreprocessResult& p
       fix.outside_points.push_back(grid.voxel_to_world(v));
     add_sample_near(v);
   }
+  fix.samples = keep_spaced(fix.samples, existing, spacing_mm);
   return fix;
 }
 
@@ -266,15 +252,14 @@ RefinedMesh build_refined_mesh(const PreprocessResult& pre, const std::vector<Ve
       break;
     }
     // Interior samples this close to the new boundary samples would make slivers there.
-    SpacedPoints near(2.0 * spacing);
-    for (const Vec3& p : fix.samples) near.add(p);
+    const PointGrid near(fix.samples, 2.0 * spacing);
     std::vector<Vec3> kept;
     std::vector<int> dropped;  // indices into i
     kept.reserve(i.size());
     std::vector<char> exposed(i.size(), 0);  // the pits' bottoms go, whatever their distance
     for (int n : deep) exposed[std::size_t(n)] = 1;
     for (std::size_t n = 0; n < i.size(); ++n)
-      if (exposed[n] || near.has_neighbour(i[n]))
+      if (exposed[n] || near.any_within(i[n], 2.0 * spacing))
         dropped.push_back(int(n));
       else
         kept.push_back(i[n]);

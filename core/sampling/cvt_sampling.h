@@ -11,9 +11,10 @@
 #include <cstdint>
 #include <vector>
 
-#include "preprocess/preprocess.h"
 #include "base/progress.h"
 #include "base/volume.h"
+#include "preprocess/preprocess.h"
+#include "sampling/nearest_site.h"
 
 namespace cvt {
 
@@ -63,8 +64,6 @@ struct IterationStats {
   double wall_s = 0;
 };
 
-class SiteIndex;  // uniform bucket grid of sites (cvt_sampling.cpp)
-
 // Stateful Lloyd solver the CLI and the viewer share (the viewer runs it on a worker thread; it
 // is not itself thread-safe). Deterministic: same input + seed → identical sites, whatever the
 // thread count.
@@ -105,15 +104,8 @@ class LloydStepper {
   std::vector<std::int32_t> owners_of(const std::vector<std::int32_t>& voxels) const;
 
  private:
-  struct Brick {
-    std::array<int, 3> origin;  // first voxel
-    std::array<int, 3> lo, hi;  // bounding box of its object voxels (voxel indices, inclusive)
-  };
   void pack_bricks(const Mask& object, const Volume<float>& density);
   void set_sites(std::vector<Vec3> local);
-  // Nearest candidate of every slot of brick b (fills scratch; see cvt_sampling.cpp).
-  template <class Scratch>
-  void assign_brick(std::size_t b, const SiteIndex& index, Scratch& scratch) const;
   bool inside(int i, int j, int k) const;
 
   Grid grid_;
@@ -122,17 +114,12 @@ class LloydStepper {
   int max_iterations_ = 100;
   std::array<int, 3> brick_{8, 8, 4};       // voxels per brick along i, j, k
   std::array<int, 3> brick_grid_{0, 0, 0};  // bricks along i, j, k
-  std::vector<Brick> bricks_;               // bricks holding object voxels
+  std::vector<VoxelBrick> bricks_;          // bricks holding object voxels
   std::vector<std::int32_t> brick_at_;      // brick grid → index into bricks_, −1 if empty
   std::vector<std::int32_t> weight_;        // per brick slot: ρ·2^20, −1 outside the object
   std::vector<Vec3> sites_local_, sites_world_;
   std::vector<IterationStats> history_;
   bool initialized_ = false, converged_ = false;
 };
-
-// Owners (index of the nearest site) of the given voxels, for sites given in the local frame.
-std::vector<std::int32_t> nearest_site_owners(const Grid& grid,
-                                              const std::vector<Vec3>& sites_local,
-                                              const std::vector<std::int32_t>& voxels);
 
 }  // namespace cvt

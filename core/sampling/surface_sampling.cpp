@@ -5,68 +5,10 @@
 #include <queue>
 
 #include "base/errors.h"
+#include "base/point_grid.h"
 #include "fields/smoothing.h"
 
 namespace cvt {
-namespace {
-
-// Boundary voxels bucketed into cubic cells (CSR layout) for the "all q with d(p,q) < R" query.
-class PointGrid {
- public:
-  PointGrid(const std::vector<Vec3>& points, double cell_mm) : points_(points), cell_(cell_mm) {
-    lo_ = points.empty() ? Vec3{} : points[0];
-    Vec3 hi = lo_;
-    for (const Vec3& p : points)
-      for (int a = 0; a < 3; ++a) {
-        lo_[a] = std::min(lo_[a], p[a]);
-        hi[a] = std::max(hi[a], p[a]);
-      }
-    for (int a = 0; a < 3; ++a) n_[a] = int((hi[a] - lo_[a]) / cell_) + 1;
-    start_.assign(std::size_t(n_[0]) * n_[1] * n_[2] + 1, 0);
-    for (const Vec3& p : points) ++start_[cell_of(p) + 1];
-    for (std::size_t c = 1; c < start_.size(); ++c) start_[c] += start_[c - 1];
-    items_.resize(points.size());
-    std::vector<std::size_t> fill(start_.begin(), start_.end() - 1);
-    for (std::size_t i = 0; i < points.size(); ++i) items_[fill[cell_of(points[i])]++] = int(i);
-  }
-
-  // Calls f(index, squared distance) for every point strictly within `radius` of `c`.
-  template <class F>
-  void for_each_within(const Vec3& c, double radius, F&& f) const {
-    int lo[3], hi[3];
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = std::max(0, int(std::floor((c[a] - radius - lo_[a]) / cell_)));
-      hi[a] = std::min(n_[a] - 1, int(std::floor((c[a] + radius - lo_[a]) / cell_)));
-    }
-    const double r2 = radius * radius;
-    for (int z = lo[2]; z <= hi[2]; ++z)
-      for (int y = lo[1]; y <= hi[1]; ++y)
-        for (int x = lo[0]; x <= hi[0]; ++x) {
-          const std::size_t cell = (std::size_t(z) * n_[1] + y) * n_[0] + x;
-          for (std::size_t s = start_[cell]; s < start_[cell + 1]; ++s) {
-            const int q = items_[s];
-            const double d2 = squared_distance(points_[q], c);
-            if (d2 < r2) f(q, d2);
-          }
-        }
-  }
-
- private:
-  std::size_t cell_of(const Vec3& p) const {
-    int c[3];
-    for (int a = 0; a < 3; ++a) c[a] = std::clamp(int((p[a] - lo_[a]) / cell_), 0, n_[a] - 1);
-    return (std::size_t(c[2]) * n_[1] + c[1]) * n_[0] + c[0];
-  }
-  const std::vector<Vec3>& points_;
-  double cell_;
-  Vec3 lo_;
-  int n_[3];
-  std::vector<std::size_t> start_;
-  std::vector<int> items_;
-};
-
-}  // namespace
-
 bool project_to_level_set(const Volume<float>& field, float level, Vec3& index,
                           double max_move_voxels) {
   const Grid& g = field.grid;
@@ -107,7 +49,7 @@ SurfaceSamples sample_surface(const PreprocessResult& pre, const SurfaceSampling
     lfs[i] = pre.lfs_mm.data[F[i]];
   }
   const double max_spacing = std::max({grid.spacing.x, grid.spacing.y, grid.spacing.z});
-  const PointGrid points(pos, 4.0 * max_spacing);
+  const PointGrid points(pos, 4.0 * max_spacing);  // the boundary voxels, for the r-cover
   const double r2 = options.r * options.r;
 
   // Priority = −(h² − r² lfs²): the log of the energy times 2σ², so no exp() underflows.
@@ -142,7 +84,8 @@ SurfaceSamples sample_surface(const PreprocessResult& pre, const SurfaceSampling
         queue.push({key[q], q});
       }
     });
-    if ((out.voxels.size() & 1023) == 0) progress("surface sampling", 1.0 - double(remaining) / double(n));
+    if ((out.voxels.size() & 1023) == 0)
+      progress("surface sampling", 1.0 - double(remaining) / double(n));
   }
 
   out.voxel_world.reserve(out.voxels.size());
