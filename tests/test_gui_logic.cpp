@@ -442,7 +442,7 @@ TEST(Session, StepsStageSixPassByPassWithBeforeAndAfter) {
   EXPECT_NEAR(scene->optimization->history[0].min_dihedral_deg, f0.min_dihedral_deg, 1e-9);
   EXPECT_NEAR(scene->optimization->history[1].min_dihedral_deg, f1.min_dihedral_deg, 1e-9);
   EXPECT_GE(f1.min_dihedral_deg, f0.min_dihedral_deg);  // the worst tet never gets worse
-  const bool more = s.stage_states()[int(Stage::mesh)] != StageState::done;
+  const bool more = s.stage_states()[int(Stage::optimize)] != StageState::done;
 
   // A second pass: a new mesh is drawn, the stage-5 measures are shared, not rebuilt.
   if (more) {
@@ -467,11 +467,11 @@ TEST(Session, StepsStageSixPassByPassWithBeforeAndAfter) {
   EXPECT_TRUE(s.scene()->quality->validity.valid);
   const int passes = int(s.scene()->optimization->history.size()) - 1;
 
-  // An edited stage 6 option marks the mesh stage pending; re-running starts stage 6 again
-  // from the kept stage-5 mesh (the same before figures) and runs it to the end.
+  // An edited stage 6 option marks stage 6 pending, not stage 5; re-running starts stage 6
+  // again from the kept stage-5 mesh (the same before figures) and runs it to the end.
   s.edited.optimization.max_passes = 1;
-  EXPECT_EQ(s.stage_states()[int(Stage::shallow)], StageState::done);
-  EXPECT_EQ(s.stage_states()[int(Stage::mesh)], StageState::pending);
+  EXPECT_EQ(s.stage_states()[int(Stage::mesh)], StageState::done);
+  EXPECT_EQ(s.stage_states()[int(Stage::optimize)], StageState::pending);
   s.rerun_stale();
   settle(s);
   ASSERT_EQ(s.failed_jobs, 0u) << s.first_error;
