@@ -1,7 +1,7 @@
 #include "session.h"
 
 #include "io/image_io.h"
-#include "io/mesh_io.h"
+#include "io/mesh_export.h"
 #include "pipeline/preset.h"
 
 namespace cvt::gui {
@@ -114,10 +114,7 @@ void Session::export_mesh(const std::string& path) {
     const MeshGenerationResult* mesh = ctx.pipeline.mesh();
     if (!mesh) throw InputError("no mesh to export yet: run mesh generation first");
     ctx.progress("writing " + path, 0.0);
-    MeshWriteOptions options;
-    for (Measure m : kShewchukMeasures)
-      options.cell_data.push_back({std::string(measure_key(m)), tet_measure(mesh->mesh, m)});
-    write_mesh(mesh->mesh, path, options);
+    write_mesh_with_quality(mesh->mesh, path);
   });
 }
 
