@@ -162,7 +162,7 @@ void PipelineWorker::run_job(const std::string& name, const Job& job) {
     std::shared_ptr<const render::LloydState> update;
     if (lloyd && lloyd->history().size() != lloyd_posted) {
       lloyd_posted = lloyd->history().size();
-      update = render::make_lloyd_state(*lloyd);
+      update = builder_.lloyd_state(*lloyd);
     }
     std::lock_guard lock(mutex_);
     status_.step = step;

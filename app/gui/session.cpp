@@ -164,7 +164,8 @@ bool Session::poll(double now_s) {
   while (auto outcome = worker_.take_outcome()) {
     changed = true;
     job_times.push_back({outcome->name, outcome->wall_s, outcome->snapshot_s});
-    const bool new_image = outcome->scene && (!scene_ || scene_->image != outcome->scene->image);
+    const bool new_image = outcome->scene && (!scene_ || scene_->generations.image !=
+                                                             outcome->scene->generations.image);
     scene_ = outcome->scene;
     live_lloyd_.reset();
     switch (outcome->status) {
