@@ -1,6 +1,7 @@
 // `cvtmesh mesh IMAGE -o OUT ...`: the whole pipeline, a progress line per stage on stderr,
 // the mesh in the format of OUT's extension, optionally a JSON run report and the preset used.
 #include <fcntl.h>
+#include <tbb/global_control.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -11,14 +12,13 @@
 #include <filesystem>
 #include <iostream>
 #include <memory>
-
 #include <nlohmann/json.hpp>
-#include <tbb/global_control.h>
-#include <tbb/info.h>
 
-#include "commands.h"
 #include "base/errors.h"
+#include "base/threads.h"
+#include "commands.h"
 #include "io/image_io.h"
+#include "io/mesh_export.h"
 #include "io/mesh_io.h"
 #include "parameter_options.h"
 #include "pipeline/pipeline.h"
@@ -86,15 +86,6 @@ std::vector<std::string> mesh_files(const std::string& path) {
           fs::path(path).replace_extension(".ele").string()};
 }
 
-// Quality measures as cell data, so a .vtu can be coloured by them in ParaView.
-MeshWriteOptions write_options(const TetMesh& mesh) {
-  MeshWriteOptions o;
-  for (Measure m : {Measure::VOverRmc3, Measure::GradientError, Measure::ConditionNumber,
-                    Measure::MinDihedralDeg})
-    o.cell_data.push_back({std::string(measure_key(m)), tet_measure(mesh, m)});
-  return o;
-}
-
 void run(const MeshArgs& args) {
   Progress progress;
   progress.cancel = install_interrupt_cancel();
@@ -103,8 +94,8 @@ void run(const MeshArgs& args) {
   ensure_writable_mesh_path(args.output);
   if (!args.report.empty()) ensure_writable_path(args.report);
   if (!args.save_preset.empty()) ensure_writable_path(args.save_preset);
-  const int threads = parameters.threads > 0 ? parameters.threads : tbb::info::default_concurrency();
-  tbb::global_control limit(tbb::global_control::max_allowed_parallelism, threads);
+  tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
+                            resolve_threads(parameters.threads));
 
   std::string last_step;
   if (!args.quiet)
@@ -125,7 +116,7 @@ void run(const MeshArgs& args) {
   progress.check_cancelled();
   std::vector<std::string> written;
   try {
-    write_mesh(mesh, args.output, write_options(mesh));
+    write_mesh_with_quality(mesh, args.output);
     written = mesh_files(args.output);
     if (!args.report.empty()) {
       write_file_atomically(args.report, run_report(pipe).dump(2) + "\n");

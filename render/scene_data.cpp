@@ -9,8 +9,10 @@
 
 namespace cvt::render {
 
-std::shared_ptr<const LloydState> make_lloyd_state(const LloydStepper& stepper) {
+std::shared_ptr<const LloydState> make_lloyd_state(const LloydStepper& stepper,
+                                                   std::uint64_t generation) {
   auto s = std::make_shared<LloydState>();
+  s->generation = generation;
   s->grid = stepper.grid();
   s->sites_world = stepper.sites_world();
   s->sites_local = stepper.sites_local();
@@ -89,9 +91,14 @@ double stage_seconds(const std::vector<StageRecord>& records, Stage stage) {
   return total;
 }
 
+std::shared_ptr<const LloydState> SceneDataBuilder::lloyd_state(const LloydStepper& stepper) {
+  return make_lloyd_state(stepper, ++generation_);
+}
+
 std::shared_ptr<const SceneData> SceneDataBuilder::update(const Pipeline& pipeline,
                                                           std::shared_ptr<const Image> image) {
   auto s = std::make_shared<SceneData>();
+  s->generation = ++generation_;
   const SceneData* prev = last_.get();
   // Stages whose result changed since the last snapshot: their parts are copied again.
   std::array<bool, kStageCount> ran{};
@@ -99,9 +106,11 @@ std::shared_ptr<const SceneData> SceneDataBuilder::update(const Pipeline& pipeli
     ran[st] = !prev || pipeline.generation(Stage(st)) != seen_[st];
     seen_[st] = pipeline.generation(Stage(st));
   }
+  // The previous snapshot holds its image, so the same address is the same image.
   const bool new_image = !prev || prev->image != image;
 
   s->image = image;
+  if (image) s->generations.image = new_image ? s->generation : prev->generations.image;
   if (image && new_image) {
     s->value_range = value_range(*image);
     if (image->integer_valued) s->label_counts = label_histogram(*image);
@@ -114,48 +123,52 @@ std::shared_ptr<const SceneData> SceneDataBuilder::update(const Pipeline& pipeli
   s->records = pipeline.records();
   s->default_interior_spacing_mm = pipeline.default_interior_spacing_mm();
 
-  // A part is kept from the previous snapshot when its result still exists and its stage did
-  // not run again; it is rebuilt when it ran; it is dropped when the result is gone (stale).
-  auto pick = [&](auto prev_part, bool exists, bool rerun, auto make) {
-    using Ptr = decltype(prev_part);
-    if (!exists) return Ptr{};
-    if (prev_part && !rerun && !new_image) return prev_part;
-    return Ptr(make());
+  // A part is kept from the previous snapshot, with its generation, when its result still
+  // exists and its stage did not run again; it is rebuilt, with this snapshot's generation,
+  // when it ran; it is dropped (generation 0) when the result is gone (stale).
+  auto pick = [&](auto part, std::uint64_t PartGenerations::*generation, bool exists, bool rerun,
+                  auto make) {
+    if (!exists) return;
+    SceneData& out = *s;
+    if (prev && prev->*part && !rerun && !new_image) {
+      out.*part = prev->*part;
+      out.generations.*generation = prev->generations.*generation;
+    } else {
+      out.*part = make();
+      out.generations.*generation = out.generation;
+    }
   };
   const PreprocessResult* pre = pipeline.preprocess();
-  s->volumes = pick(prev ? prev->volumes : nullptr, pre != nullptr, ran[int(Stage::preprocess)],
-                    [&] { return make_volume_layers(*pre, image->grid()); });
+  pick(&SceneData::volumes, &PartGenerations::volumes, pre != nullptr, ran[int(Stage::preprocess)],
+       [&] { return make_volume_layers(*pre, image->grid()); });
   const SurfaceSamples* surf = pipeline.surface();
-  s->surface_samples =
-      pick(prev ? prev->surface_samples : nullptr, surf != nullptr, ran[int(Stage::surface)],
-           [&] { return std::make_shared<const std::vector<Vec3>>(surf->world); });
-  s->surface_voxel_samples =
-      pick(prev ? prev->surface_voxel_samples : nullptr, surf != nullptr,
-           ran[int(Stage::surface)],
-           [&] { return std::make_shared<const std::vector<Vec3>>(surf->voxel_world); });
+  pick(&SceneData::surface_samples, &PartGenerations::surface, surf != nullptr,
+       ran[int(Stage::surface)],
+       [&] { return std::make_shared<const std::vector<Vec3>>(surf->world); });
+  pick(&SceneData::surface_voxel_samples, &PartGenerations::surface, surf != nullptr,
+       ran[int(Stage::surface)],
+       [&] { return std::make_shared<const std::vector<Vec3>>(surf->voxel_world); });
   // Lloyd can move without a stage record (step_lloyd), and its state is small: always copy.
-  if (pipeline.lloyd()) s->lloyd = make_lloyd_state(*pipeline.lloyd());
+  if (pipeline.lloyd()) s->lloyd = make_lloyd_state(*pipeline.lloyd(), s->generation);
   const ShallowResult* sh = pipeline.shallow();
-  s->shallow = pick(prev ? prev->shallow : nullptr, sh != nullptr, ran[int(Stage::shallow)],
-                    [&] { return std::make_shared<const ShallowResult>(*sh); });
+  pick(&SceneData::shallow, &PartGenerations::shallow, sh != nullptr, ran[int(Stage::shallow)],
+       [&] { return std::make_shared<const ShallowResult>(*sh); });
   // The mesh drawn is the pipeline's final one: stage 6's once it ran, else stage 5's.
   const RefinedMesh* generated = pipeline.mesh();
   const OptimizedMesh* optimized = pipeline.optimized();
-  const bool mesh_changed = ran[int(Stage::mesh)] || ran[int(Stage::optimize)];
-  s->mesh = pick(prev ? prev->mesh : nullptr, generated != nullptr, mesh_changed, [&] {
-    return make_mesh_layers(*pipeline.final_mesh(), generated->exterior_poles);
-  });
-  s->optimization =
-      pick(prev ? prev->optimization : nullptr, optimized != nullptr, ran[int(Stage::optimize)],
-           [&] { return std::make_shared<const OptimizationResult>(optimized->optimization); });
-  s->unoptimized = pick(prev ? prev->unoptimized : nullptr, generated && optimized,
-                        ran[int(Stage::mesh)] || !(prev && prev->unoptimized),
-                        [&] { return make_mesh_measures(generated->mesh); });
+  pick(&SceneData::mesh, &PartGenerations::mesh, generated != nullptr,
+       ran[int(Stage::mesh)] || ran[int(Stage::optimize)],
+       [&] { return make_mesh_layers(*pipeline.final_mesh(), generated->exterior_poles); });
+  pick(&SceneData::optimization, &PartGenerations::optimization, optimized != nullptr,
+       ran[int(Stage::optimize)],
+       [&] { return std::make_shared<const OptimizationResult>(optimized->optimization); });
+  pick(&SceneData::unoptimized, &PartGenerations::unoptimized, generated && optimized,
+       ran[int(Stage::mesh)], [&] { return make_mesh_measures(generated->mesh); });
   const bool evaluated = ran[int(Stage::evaluate)];
-  s->quality = pick(prev ? prev->quality : nullptr, pipeline.quality() != nullptr, evaluated,
-                    [&] { return std::make_shared<const QualityReport>(*pipeline.quality()); });
-  s->fidelity = pick(prev ? prev->fidelity : nullptr, pipeline.fidelity() != nullptr, evaluated,
-                     [&] { return std::make_shared<const FidelityReport>(*pipeline.fidelity()); });
+  pick(&SceneData::quality, &PartGenerations::quality, pipeline.quality() != nullptr, evaluated,
+       [&] { return std::make_shared<const QualityReport>(*pipeline.quality()); });
+  pick(&SceneData::fidelity, &PartGenerations::fidelity, pipeline.fidelity() != nullptr, evaluated,
+       [&] { return std::make_shared<const FidelityReport>(*pipeline.fidelity()); });
   last_ = s;
   return s;
 }

@@ -30,6 +30,9 @@ struct VolumeLayers {
 
 // The Lloyd state (stage 3) at one iteration.
 struct LloydState {
+  // Which state this is (see SceneData::generation); it has its own because live states come
+  // between snapshots.
+  std::uint64_t generation = 0;
   Grid grid;                      // the cropped grid the sites live on
   std::vector<Vec3> sites_world;  // mm
   std::vector<Vec3> sites_local;  // mm, spacing ⊙ index (for discrete Voronoi labels)
@@ -54,7 +57,20 @@ struct MeshMeasures {
   std::array<std::vector<double>, kMeasureCount> measures;
 };
 
+// The snapshot that built each part (a part kept from an earlier snapshot keeps its number; 0:
+// no such part). Readers that cache what they made of a part (GPU buffers, a slice picture,
+// figures) tell a new part by its number, never by its address.
+struct PartGenerations {
+  std::uint64_t image = 0, volumes = 0, surface = 0, shallow = 0, mesh = 0, optimization = 0,
+                unoptimized = 0, quality = 0, fidelity = 0;
+  bool operator==(const PartGenerations&) const = default;
+};
+
 struct SceneData {
+  // Snapshots of one builder count from 1 (0: not made by a builder); Lloyd states share the
+  // count, so no two things a builder made have the same number.
+  std::uint64_t generation = 0;
+  PartGenerations generations;
   std::shared_ptr<const Image> image;                // null before an image is loaded
   std::map<std::int64_t, std::size_t> label_counts;  // integer images: voxels per label
   ValueRange value_range;
@@ -65,7 +81,7 @@ struct SceneData {
   std::shared_ptr<const VolumeLayers> volumes;
   std::shared_ptr<const std::vector<Vec3>> surface_samples;  // B (world mm)
   std::shared_ptr<const std::vector<Vec3>> surface_voxel_samples;  // B at voxel centres (world)
-  std::shared_ptr<const LloydState> lloyd;
+  std::shared_ptr<const LloydState> lloyd;                         // made anew for every snapshot
   std::shared_ptr<const ShallowResult> shallow;
   std::shared_ptr<const MeshLayers> mesh;  // the final mesh: stage 6's once it ran
   // Stage 6: its options as applied, its result so far (per-pass history), and the stage-5
@@ -90,14 +106,19 @@ class SceneDataBuilder {
   std::shared_ptr<const SceneData> update(const Pipeline& pipeline,
                                           std::shared_ptr<const Image> image);
   std::shared_ptr<const SceneData> last() const { return last_; }
+  // The stepper's state now, numbered after everything this builder made so far (the worker
+  // posts it between snapshots).
+  std::shared_ptr<const LloydState> lloyd_state(const LloydStepper& stepper);
 
  private:
   std::shared_ptr<const SceneData> last_;
+  std::uint64_t generation_ = 0;  // the last number given out
   // Pipeline::generation of each stage at the last snapshot.
   std::array<std::uint64_t, kStageCount> seen_{};
 };
 
-std::shared_ptr<const LloydState> make_lloyd_state(const LloydStepper& stepper);
+std::shared_ptr<const LloydState> make_lloyd_state(const LloydStepper& stepper,
+                                                   std::uint64_t generation);
 std::shared_ptr<const VolumeLayers> make_volume_layers(const PreprocessResult& pre,
                                                        const Grid& image_grid);
 std::shared_ptr<const MeshLayers> make_mesh_layers(const TetMesh& mesh,

@@ -5,7 +5,8 @@
 namespace cvt::render {
 
 const std::vector<Vec3>* interior_points(const SceneData& scene, const LloydState* lloyd) {
-  if (scene.shallow && lloyd == scene.lloyd.get()) return &scene.shallow->kept_world;
+  if (scene.shallow && lloyd && scene.lloyd && lloyd->generation == scene.lloyd->generation)
+    return &scene.shallow->kept_world;
   return lloyd ? &lloyd->sites_world : nullptr;
 }
 
@@ -18,18 +19,18 @@ SliceView compose_slice_view(const SliceRequest& r, VoronoiCache* cache) {
   VoronoiCache& c = cache ? *cache : local;
   const std::vector<std::int32_t>* voronoi = nullptr;
   if (r.overlays.voronoi && lloyd && vol) {
-    if (c.lloyd != r.lloyd || c.volumes != scene.volumes || c.axis != r.axis ||
-        c.index != r.index) {
+    if (c.lloyd != lloyd->generation || c.volumes != scene.generations.volumes ||
+        c.axis != r.axis || c.index != r.index || lloyd->generation == 0) {
       c.labels = voronoi_slice_labels(*lloyd, *vol, grid, r.axis, r.index);
-      c.lloyd = r.lloyd;
-      c.volumes = scene.volumes;
+      c.lloyd = lloyd->generation;
+      c.volumes = scene.generations.volumes;
       c.axis = r.axis;
       c.index = r.index;
     }
     voronoi = &c.labels;
   }
   SliceView out;
-  out.source = scene.image.get();
+  out.image_generation = scene.generations.image;
   out.axis = r.axis;
   out.image =
       compose_slice(*scene.image, vol, voronoi, r.axis, r.index, r.overlays, r.window_level);

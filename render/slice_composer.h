@@ -31,7 +31,7 @@ struct SliceView {
   std::vector<SlicePoint> points;
   std::array<Vec3, 4> plane_corners;  // the slice's rectangle in the 3D scene (world mm):
                                       // (u0,v0), (u1,v0), (u1,v1), (u0,v1) at the voxel edges
-  const Image* source = nullptr;      // the image it shows (to refit on a new one)
+  std::uint64_t image_generation = 0;  // of the image it shows (to refit on a new one)
   int axis = 2;
 };
 
@@ -42,10 +42,7 @@ const std::vector<Vec3>* interior_points(const SceneData& scene, const LloydStat
 // Everything at once, on the calling thread. `voronoi_cache` (may be null) keeps the labels
 // of the last (sites, slice) between calls.
 struct VoronoiCache {
-  // Held, not just compared by address, so a new state at a freed one's address is not
-  // mistaken for it.
-  std::shared_ptr<const LloydState> lloyd;
-  std::shared_ptr<const VolumeLayers> volumes;
+  std::uint64_t lloyd = 0, volumes = 0;  // generations of the labels' sites and crop
   int axis = -1, index = -1;
   std::vector<std::int32_t> labels;
 };

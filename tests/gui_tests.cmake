@@ -14,6 +14,9 @@ cvt_add_test(test_render_data test_render_data.cpp)
 target_link_libraries(test_render_data PRIVATE cvtrender_logic)
 cvt_add_test(test_gui_logic test_gui_logic.cpp)
 target_link_libraries(test_gui_logic PRIVATE cvtgui_logic)
+# The session's export is checked against the CLI's output.
+target_compile_definitions(test_gui_logic PRIVATE CVTMESH_CLI="$<TARGET_FILE:cvtmesh>")
+add_dependencies(test_gui_logic cvtmesh)
 
 add_executable(check_screenshot check_screenshot.cpp)
 target_link_libraries(check_screenshot PRIVATE PkgConfig::OIIO)

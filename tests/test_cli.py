@@ -14,6 +14,10 @@ import unittest
 CVTMESH = sys.argv[1] if len(sys.argv) > 1 else "build/app/cvtmesh"
 SOURCE = sys.argv[2] if len(sys.argv) > 2 else "."
 LIVER = os.path.join(SOURCE, "data", "liver.inr.gz")
+# The phantom tool (tests/phantoms): ctest names it; by hand, its place in the build folder.
+PHANTOM = os.environ.get("CVTMESH_PHANTOM") or os.path.join(
+    os.path.dirname(os.path.dirname(os.path.abspath(CVTMESH))), "tests", "phantoms",
+    "cvtmesh-phantom")
 
 
 def run(*args):
@@ -240,8 +244,7 @@ class BadInput(unittest.TestCase):
     def test_truncated_nii_gz(self):
         # A real image cut in half, written by our own phantom tool.
         good = self.path("torus.nii.gz")
-        phantom = os.environ.get("CVTMESH_PHANTOM", "build/tests/phantoms/cvtmesh-phantom")
-        subprocess.run([phantom, "torus", "-o", good], check=True)
+        subprocess.run([PHANTOM, "torus", "-o", good], check=True)
         with open(good, "rb") as f:
             data = f.read()
         bad = self.path("cut.nii.gz")

@@ -1,22 +1,22 @@
 // Stage 7: the mask's marching-cubes surface, volume error and surface distances.
 #include <gtest/gtest.h>
 
-#include <chrono>
+#include <algorithm>
 #include <cmath>
-#include <cstdio>
 #include <nlohmann/json.hpp>
 #include <random>
 
 #include "evaluate/fidelity.h"
+#include "evaluate/quality.h"
 #include "fields/marching_cubes.h"
 #include "phantoms.h"
-#include "evaluate/quality.h"
 
 using namespace cvt;
 
 namespace {
 
 const Vec3 kSpacing{0.7, 0.8, 1.1};
+const double kPi = 3.14159265358979323846;
 
 Mask phantom_mask(const Phantom& p, const Vec3& spacing = kSpacing) {
   const Image image = rasterize(p, grid_around(p, spacing, rotation_matrix({1, 2, 0.5}, 0.6)));
@@ -35,6 +35,14 @@ double enclosed_volume(const TriangleSurface& s) {
 
 double half_voxel_diagonal(const Vec3& s) {
   return 0.5 * norm(s);
+}
+
+// Vertices that some triangle uses.
+std::size_t used_vertices(const TriangleSurface& s) {
+  std::vector<char> used(s.vertices.size(), 0);
+  for (const Triangle& t : s.triangles)
+    for (std::int32_t v : t) used[std::size_t(v)] = 1;
+  return std::size_t(std::count(used.begin(), used.end(), 1));
 }
 
 }  // namespace
@@ -189,21 +197,37 @@ TEST(SurfaceDistance, ZeroAgainstItselfAndTheTranslationWhenMoved) {
   EXPECT_LT(d.mean_mm, norm(t));
 }
 
-TEST(Fidelity, LargeObjectTiming) {
-  const Mask mask = phantom_mask(torus_phantom({0, 0, 0}, 30.0, 10.0), {0.6, 0.6, 1.3});
+// A large object at CT spacing (a torus 80 mm across, 0.6 × 0.6 × 1.3 mm voxels), its voxel mesh
+// against its own mask: at the default sample spacing (one smallest voxel spacing), and under a
+// sample cap that forces a coarser spacing. The object volume is the torus's, the object
+// surface has its topology, and the Hausdorff bound above holds at both spacings.
+TEST(Fidelity, LargeObjectAtCtSpacingAndUnderASampleCap) {
+  const Vec3 ct{0.6, 0.6, 1.3};
+  const double major = 30, minor = 10;
+  const Mask mask = phantom_mask(torus_phantom({0, 0, 0}, major, minor), ct);
   const TetMesh mesh = voxel_tet_mesh(mask);
-  auto t0 = std::chrono::steady_clock::now();
-  const TriangleSurface s = marching_cubes(mask);
-  const double mc = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  t0 = std::chrono::steady_clock::now();
-  const FidelityReport rep = compute_fidelity(mesh, mask);
-  const double all = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  std::printf(
-      "mask %dx%dx%d: marching cubes %zu triangles in %.3f s; fidelity of %zu tets (%zu + %zu "
-      "samples, h = %.3f mm) in %.3f s; hausdorff %.3f mean %.3f p95 %.3f mm\n",
-      mask.grid.dims[0], mask.grid.dims[1], mask.grid.dims[2], s.triangles.size(), mc,
-      mesh.tets.size(), rep.distance.samples_a, rep.distance.samples_b,
-      rep.distance.sample_spacing_mm, all, rep.distance.hausdorff_mm, rep.distance.mean_mm,
-      rep.distance.p95_mm);
-  EXPECT_LE(rep.distance.hausdorff_mm, half_voxel_diagonal({0.6, 0.6, 1.3}));
+  const FidelityReport fine = compute_fidelity(mesh, mask);
+  const double torus_volume = 2 * kPi * kPi * major * minor * minor;
+  EXPECT_NEAR(fine.object_volume_mm3, torus_volume, 0.01 * torus_volume);
+  EXPECT_NEAR(fine.volume_error_percent, 0, 1e-7);  // rounding over many tets
+  EXPECT_EQ(fine.object_surface_euler, 0);
+  EXPECT_EQ(fine.object_surface_components, 1u);
+  EXPECT_DOUBLE_EQ(fine.distance.sample_spacing_mm, 0.6);
+  EXPECT_LE(fine.distance.hausdorff_mm, half_voxel_diagonal(ct));
+  EXPECT_GT(fine.distance.mean_mm, 0);
+  EXPECT_LT(fine.distance.mean_mm, 0.25 * ct.z);
+
+  // Area samples (vertices aside) stay below the cap on both surfaces; the spacing grows to
+  // keep them there, and the figures stay within the same bounds.
+  const std::size_t mesh_vertices = used_vertices(boundary_surface(mesh));
+  const std::size_t object_vertices = used_vertices(marching_cubes(mask));
+  FidelityOptions capped_options;
+  capped_options.max_samples = (fine.distance.samples_b - object_vertices) / 2;
+  const FidelityReport capped = compute_fidelity(mesh, mask, capped_options);
+  EXPECT_GT(capped.distance.sample_spacing_mm, 0.6);
+  EXPECT_LE(capped.distance.samples_a - mesh_vertices, capped_options.max_samples);
+  EXPECT_LE(capped.distance.samples_b - object_vertices, capped_options.max_samples);
+  EXPECT_EQ(capped.volume_error_percent, fine.volume_error_percent);
+  EXPECT_LE(capped.distance.hausdorff_mm, half_voxel_diagonal(ct));
+  EXPECT_NEAR(capped.distance.mean_mm, fine.distance.mean_mm, 0.1 * fine.distance.mean_mm);
 }

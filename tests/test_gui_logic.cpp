@@ -4,7 +4,6 @@
 // statistics, and every user input (command line, File > Open, drops, recent files, keys)
 // through the functions the window calls. No window (GLFW's header for its key codes only).
 #include <gtest/gtest.h>
-
 #include <sys/resource.h>
 #include <sys/syscall.h>
 #include <unistd.h>
@@ -12,6 +11,7 @@
 #include <atomic>
 #include <cerrno>
 #include <chrono>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -345,6 +345,34 @@ TEST(Session, OpensRunsStepsAndKeepsTheLastGoodStateAfterErrors) {
   EXPECT_TRUE(s.load_preset(preset));
   EXPECT_DOUBLE_EQ(s.edited.r, 0.35);
   EXPECT_FALSE(s.load_preset("/nonexistent.json"));
+}
+
+std::string file_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// File > Export writes what `cvtmesh mesh -o` writes: the committed phantom with default
+// parameters and the same thread count, through the CLI binary and through the session, give
+// the same .vtu byte for byte (mesh, labels and the quality cell data).
+TEST(Session, ExportWritesTheFileTheCommandLineWrites) {
+  const std::string image = CVTMESH_SOURCE_DIR "/assets/phantom_torus.nii.gz";
+  const auto dir = temp_dir("same_export");
+  const std::string cli = (dir / "cli.vtu").string(), viewer = (dir / "viewer.vtu").string();
+  const std::string command =
+      std::string("'") + CVTMESH_CLI + "' mesh '" + image + "' -o '" + cli + "' --threads 2 -q";
+  ASSERT_EQ(std::system(command.c_str()), 0) << command;
+  Session s;
+  s.edited.threads = 2;
+  s.open_image(image);
+  s.run_all();
+  s.export_mesh(viewer);
+  settle(s);
+  ASSERT_EQ(s.failed_jobs, 0u) << s.first_error;
+  const std::string written = file_bytes(viewer);
+  EXPECT_GT(written.size(), 10000u);
+  EXPECT_NE(written.find("Name=\"min_dihedral_deg\""), std::string::npos);
+  EXPECT_TRUE(written == file_bytes(cli)) << cli << " and " << viewer << " differ";
 }
 
 TEST(Session, AutoRerunStartsOnceAfterAQuietEdit) {

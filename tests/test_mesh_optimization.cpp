@@ -438,16 +438,18 @@ TEST(MeshOptimization, RejectsBadInput) {
   EXPECT_GE(r.history.size(), 1u);
 }
 
-// Any image named by CVT_OPT_IMAGE (grey images: CVT_OPT_ISO): the invariants, printed figures.
-TEST(MeshOptimization, ImageFromEnvironment) {
-  const char* path = std::getenv("CVT_OPT_IMAGE");
-  if (!path) GTEST_SKIP() << "set CVT_OPT_IMAGE";
-  Parameters params;
-  if (const char* iso = std::getenv("CVT_OPT_ISO")) params.iso = std::atof(iso);
-  auto pipe = mesh_image(std::make_shared<Image>(read_image(path)), params);
+// The committed phantom (assets/, a torus read from its NIfTI file as a user gives it): the
+// invariants, the torus's boundary topology, no dihedral below 10°.
+TEST(MeshOptimization, CommittedPhantomImage) {
+  const std::string path = CVTMESH_SOURCE_DIR "/assets/phantom_torus.nii.gz";
+  auto pipe = mesh_image(std::make_shared<Image>(read_image(path)));
   const TetMesh before = pipe->mesh()->mesh;
   TetMesh after = before;
   const OptimizationResult r = optimize_mesh(after, &pipe->preprocess()->indicator);
-  print_stats("image", r);
-  expect_improved(before, after, r, min_spacing(pipe->preprocess()->indicator));
+  print_stats("phantom", r);
+  const QualityReport q =
+      expect_improved(before, after, r, min_spacing(pipe->preprocess()->indicator));
+  EXPECT_EQ(q.validity.boundary.euler_characteristic, 0);
+  EXPECT_EQ(q.validity.boundary.components, 1u);
+  EXPECT_GE(q.dihedral.min_deg, 10.0);
 }

@@ -141,6 +141,9 @@ TEST(SceneData, SnapshotsShareWhatDidNotChange) {
   SceneDataBuilder builder;
   const auto empty = builder.update(pipe, image);
   EXPECT_EQ(empty->volumes, nullptr);
+  EXPECT_EQ(empty->generation, 1u);
+  EXPECT_EQ(empty->generations.image, 1u);
+  EXPECT_EQ(empty->generations.volumes, 0u);  // no such part
   EXPECT_EQ(empty->label_counts.at(1),
             std::size_t(std::count(image->voxels.data.begin(), image->voxels.data.end(), 1.0f)));
   pipe.run_all();
@@ -151,6 +154,14 @@ TEST(SceneData, SnapshotsShareWhatDidNotChange) {
   EXPECT_EQ(full->mesh->mesh.tets.size(), pipe.final_mesh()->tets.size());
   EXPECT_EQ(full->mesh->measures[0].size(), full->mesh->mesh.tets.size());
   for (int s = 0; s < kStageCount; ++s) EXPECT_FALSE(full->stale[s]);
+  // Every part is new except the image; the Lloyd state is numbered with its snapshot.
+  EXPECT_EQ(full->generation, 2u);
+  EXPECT_EQ(full->generations.image, 1u);
+  EXPECT_EQ(full->generations.volumes, 2u);
+  EXPECT_EQ(full->generations.mesh, 2u);
+  EXPECT_EQ(full->generations.quality, 2u);
+  ASSERT_NE(full->lloyd, nullptr);
+  EXPECT_EQ(full->lloyd->generation, 2u);
   EXPECT_GE(stage_seconds(full->records, Stage::evaluate), 0.0);
   EXPECT_GE(stage_seconds(full->records, Stage::cvt), 0.0);
   // Nothing ran: every part is shared.
@@ -158,6 +169,10 @@ TEST(SceneData, SnapshotsShareWhatDidNotChange) {
   EXPECT_EQ(again->volumes, full->volumes);
   EXPECT_EQ(again->mesh, full->mesh);
   EXPECT_EQ(again->quality, full->quality);
+  EXPECT_EQ(again->generation, 3u);
+  EXPECT_EQ(again->generations, full->generations);
+  // A live Lloyd state between snapshots takes the next number.
+  EXPECT_EQ(builder.lloyd_state(*pipe.lloyd())->generation, 4u);
   // A new r: stage 1 is kept, stage 2 is new, the rest is gone until it runs again.
   Parameters params = pipe.parameters();
   params.r = 0.3;
@@ -167,6 +182,9 @@ TEST(SceneData, SnapshotsShareWhatDidNotChange) {
   EXPECT_EQ(partial->volumes, full->volumes);
   ASSERT_NE(partial->surface_samples, nullptr);
   EXPECT_NE(partial->surface_samples, full->surface_samples);
+  EXPECT_EQ(partial->generations.volumes, full->generations.volumes);
+  EXPECT_EQ(partial->generations.surface, partial->generation);
+  EXPECT_EQ(partial->generations.mesh, 0u);
   // Both positions of B travel, so the slice view can show them side by side.
   ASSERT_NE(partial->surface_voxel_samples, nullptr);
   EXPECT_EQ(partial->surface_voxel_samples->size(), partial->surface_samples->size());
@@ -178,6 +196,7 @@ TEST(SceneData, SnapshotsShareWhatDidNotChange) {
   const auto rerun = builder.update(pipe, image);
   ASSERT_NE(rerun->quality, nullptr);
   EXPECT_NE(rerun->quality, full->quality);
+  EXPECT_EQ(rerun->generations.quality, rerun->generation);
   EXPECT_EQ(stage_of_record("fidelity"), Stage::evaluate);
 }
 
@@ -185,6 +204,7 @@ TEST(SliceComposer, ComposesOffThreadNewestFirst) {
   SliceFixture f;
   auto scene = std::make_shared<SceneData>();
   scene->image = std::make_shared<const Image>(f.image);
+  scene->generations.image = 7;
   scene->volumes = std::make_shared<const VolumeLayers>(f.vol);
   const Grid& g = f.image.grid();
   scene->surface_samples =
@@ -197,7 +217,7 @@ TEST(SliceComposer, ComposesOffThreadNewestFirst) {
   // Synchronously: the picture, the sample on this slice, the plane at the voxel edges.
   const SliceView direct = compose_slice_view(r);
   EXPECT_EQ(direct.points.size(), 1u);
-  EXPECT_EQ(direct.source, scene->image.get());
+  EXPECT_EQ(direct.image_generation, 7u);
   const Vec3 corner = g.index_to_world({-0.5, -0.5, 1});
   EXPECT_NEAR(distance(direct.plane_corners[0], corner), 0.0, 1e-9);
   // Asynchronously, two requests in a row: whatever arrives last is the newest one.

@@ -2,7 +2,6 @@
 
 #include <sys/resource.h>
 #include <sys/syscall.h>
-#include <tbb/info.h>
 #include <tbb/task_arena.h>
 #include <tbb/task_scheduler_observer.h>
 #include <unistd.h>
@@ -11,6 +10,8 @@
 #include <cerrno>
 #include <chrono>
 #include <new>
+
+#include "base/threads.h"
 
 namespace cvt::gui {
 namespace {
@@ -161,7 +162,7 @@ void PipelineWorker::run_job(const std::string& name, const Job& job) {
     std::shared_ptr<const render::LloydState> update;
     if (lloyd && lloyd->history().size() != lloyd_posted) {
       lloyd_posted = lloyd->history().size();
-      update = render::make_lloyd_state(*lloyd);
+      update = builder_.lloyd_state(*lloyd);
     }
     std::lock_guard lock(mutex_);
     status_.step = step;
@@ -169,10 +170,9 @@ void PipelineWorker::run_job(const std::string& name, const Job& job) {
     if (update) lloyd_update_ = std::move(update);
   };
   const auto t0 = std::chrono::steady_clock::now();
-  const int threads = pipeline_.parameters().threads > 0 ? pipeline_.parameters().threads
-                      : max_threads_ > 0                 ? max_threads_
-                                                         : tbb::info::default_concurrency();
-  tbb::task_arena arena(threads);
+  // The run's own thread count wins over the viewer's cap (--threads).
+  const int requested = pipeline_.parameters().threads;
+  tbb::task_arena arena(resolve_threads(requested > 0 ? requested : max_threads_));
   NiceObserver nice(arena, nice_);
   arena.execute([&] {
     try {

@@ -43,11 +43,12 @@ void toggle_highlight(ViewSettings& view, const render::TetSelection& selection)
 
 // Figures of the drawn mesh and of the stage-5 mesh, recomputed only when a new one arrives.
 struct FiguresCache {
-  std::shared_ptr<const void> key;
+  std::uint64_t generation = 0;  // of the part the figures are of (0: always recomputed)
   render::MeshFigures figures;
-  const render::MeshFigures& get(const std::shared_ptr<const void>& part,
+  const render::MeshFigures& get(std::uint64_t part_generation,
                                  const std::array<std::vector<double>, 6>& measures) {
-    if (part != key) key = part, figures = render::mesh_figures(measures);
+    if (part_generation != generation || part_generation == 0)
+      generation = part_generation, figures = render::mesh_figures(measures);
     return figures;
   }
 };
@@ -175,10 +176,12 @@ void draw_quality_panel(UiContext& ctx) {
     return;
   }
   static FiguresCache after_cache, before_cache;
-  const render::MeshFigures& after = after_cache.get(scene->mesh, scene->mesh->measures);
+  const render::MeshFigures& after =
+      after_cache.get(scene->generations.mesh, scene->mesh->measures);
   const render::MeshFigures* before =
-      scene->unoptimized ? &before_cache.get(scene->unoptimized, scene->unoptimized->measures)
-                         : nullptr;
+      scene->unoptimized
+          ? &before_cache.get(scene->generations.unoptimized, scene->unoptimized->measures)
+          : nullptr;
   ImGui::Separator();
   if (before) {
     const int passes = scene->optimization ? int(scene->optimization->history.size()) - 1 : 0;

@@ -55,10 +55,12 @@ void SceneRenderer::sync(const std::shared_ptr<const render::SceneData>& scene_p
   if (auto picture = composer_.take()) upload_slice(std::move(*picture));
   if (!scene_ptr || !scene_ptr->image) return;
   const render::SceneData* scene = scene_ptr.get();
+  const render::PartGenerations& built = scene->generations;
+  const std::uint64_t lloyd_generation = lloyd ? lloyd->generation : 0;
   // The box the 3D view fits and the clip is placed in: the mesh, else the object's crop,
   // else the image. Refit when a better one first arrives for this image.
-  if (scene->image != fitted_image_)
-    fitted_image_ = scene->image, fitted_to_mesh_ = fitted_to_volume_ = false;
+  if (built.image != fitted_image_)
+    fitted_image_ = built.image, fitted_to_mesh_ = fitted_to_volume_ = false;
   bool refit = false;
   if (scene->mesh) {
     box_lo_ = scene->mesh->lo, box_hi_ = scene->mesh->hi;
@@ -76,22 +78,22 @@ void SceneRenderer::sync(const std::shared_ptr<const render::SceneData>& scene_p
   if (refit) fit_3d();
 
   const ClipKey clip_key{view.clip_enabled, view.clip_axis, view.clip_position, view.clip_flip};
-  MeshKey mesh_key{scene->mesh, clip_key, view.color_by, view.color_boundary, view.highlight};
+  MeshKey mesh_key{built.mesh, clip_key, view.color_by, view.color_boundary, view.highlight};
   if (mesh_key != mesh_key_) {
     mesh_key_ = std::move(mesh_key);
     rebuild_mesh(*scene, view);
   }
-  if (scene->volumes != surface_key_) {
-    surface_key_ = scene->volumes;
+  if (built.volumes != surface_key_) {
+    surface_key_ = built.volumes;
     std::vector<render::ColoredVertex> soup;
     if (scene->volumes)
       render::append_surface(scene->volumes->object_surface, render::MeshColoring{}.surface, soup);
     view3d_.set_object_surface(soup);
   }
-  PointsKey points_key{scene->surface_samples,
-                       lloyd,
-                       scene->shallow,
-                       scene->mesh,
+  PointsKey points_key{built.surface,
+                       lloyd_generation,
+                       built.shallow,
+                       built.mesh,
                        view.overlays,
                        clip_key,
                        std::pair(view.show_surface, view.show_points)};
@@ -100,11 +102,10 @@ void SceneRenderer::sync(const std::shared_ptr<const render::SceneData>& scene_p
     rebuild_points(*scene, lloyd.get(), view);
   }
   slice_index = effective_slice_index(view, *scene);
-  SliceKey slice_key{
-      scene->image,           scene->volumes, view.overlays.voronoi ? Part(lloyd) : Part(),
-      scene->surface_samples, scene->shallow, scene->mesh,
-      view.slice_axis,        slice_index,    view.overlays,
-      view.window_level};
+  SliceKey slice_key{built.image,      built.volumes, view.overlays.voronoi ? lloyd_generation : 0,
+                     built.surface,    built.shallow, built.mesh,
+                     view.slice_axis,  slice_index,   view.overlays,
+                     view.window_level};
   if (slice_key != slice_key_) {
     slice_key_ = std::move(slice_key);
     request_slice(scene_ptr, lloyd, view);
@@ -170,7 +171,7 @@ void SceneRenderer::upload_slice(render::SliceView&& picture) {
   view3d_.set_slice_plane(picture.image, corners);
   has_slice = true;
   // Fit when the picture changes shape (a new image, another axis).
-  const std::tuple<const Image*, int> shape{picture.source, picture.axis};
+  const std::tuple<std::uint64_t, int> shape{picture.image_generation, picture.axis};
   if (shape != slice_fitted_) {
     slice_fitted_ = shape;
     fit_slice(slice_rect_);

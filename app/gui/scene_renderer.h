@@ -63,10 +63,9 @@ class SceneRenderer {
   render::ClipPlane clip_{};
   Vec3 box_lo_{}, box_hi_{};  // what the 3D view fits and the clip position is relative to
   bool have_box_ = false;
-  // What each buffer was built from (parts of the snapshot, and settings); a buffer is
-  // rebuilt when its key changes. The parts are held, not just compared by address, so a new
-  // part allocated where a freed one was is never mistaken for it.
-  using Part = std::shared_ptr<const void>;
+  // What each buffer was built from (the generations of the snapshot's parts, and settings); a
+  // buffer is rebuilt when its key changes.
+  using Part = std::uint64_t;  // a PartGenerations entry, or LloydState::generation
   using ClipKey = std::tuple<bool, int, double, bool>;
   using MeshKey = std::tuple<Part, ClipKey, std::optional<Measure>, bool, render::TetSelection>;
   using PointsKey =
@@ -76,9 +75,9 @@ class SceneRenderer {
   std::optional<MeshKey> mesh_key_;
   std::optional<PointsKey> points_key_;
   std::optional<SliceKey> slice_key_;
-  Part surface_key_, fitted_image_;
+  Part surface_key_ = 0, fitted_image_ = 0;
   bool fitted_to_mesh_ = false, fitted_to_volume_ = false;
-  std::tuple<const Image*, int> slice_fitted_{nullptr, -1};
+  std::tuple<std::uint64_t, int> slice_fitted_{0, -1};
   Rect slice_rect_;  // where the slice view is, for fitting a picture when it arrives
   render::AsyncSliceComposer composer_;
   glm::vec4 clear_color_{0.13f, 0.14f, 0.17f, 1.0f};

@@ -1,7 +1,7 @@
 #include "session.h"
 
 #include "io/image_io.h"
-#include "io/mesh_io.h"
+#include "io/mesh_export.h"
 #include "pipeline/parameter_registry.h"
 #include "pipeline/preset.h"
 
@@ -115,10 +115,7 @@ void Session::export_mesh(const std::string& path) {
     const TetMesh* mesh = ctx.pipeline.final_mesh();
     if (!mesh) throw InputError("no mesh to export yet: run mesh generation first");
     ctx.progress("writing " + path, 0.0);
-    MeshWriteOptions options;
-    for (Measure m : kShewchukMeasures)
-      options.cell_data.push_back({std::string(measure_key(m)), tet_measure(*mesh, m)});
-    write_mesh(*mesh, path, options);
+    write_mesh_with_quality(*mesh, path);
   });
 }
 
@@ -168,7 +165,8 @@ bool Session::poll(double now_s) {
   while (auto outcome = worker_.take_outcome()) {
     changed = true;
     job_times.push_back({outcome->name, outcome->wall_s, outcome->snapshot_s});
-    const bool new_image = outcome->scene && (!scene_ || scene_->image != outcome->scene->image);
+    const bool new_image = outcome->scene && (!scene_ || scene_->generations.image !=
+                                                             outcome->scene->generations.image);
     scene_ = outcome->scene;
     live_lloyd_.reset();
     switch (outcome->status) {
