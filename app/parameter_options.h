@@ -20,6 +20,8 @@ class ParameterOptions {
     object,  // --preset and the object's selection and clean-up only (`quality --image`)
   };
   explicit ParameterOptions(CLI::App* cmd, Scope scope = Scope::all);
+  ParameterOptions(const ParameterOptions&) = delete;  // the options point into this object
+  ParameterOptions& operator=(const ParameterOptions&) = delete;
   // Defaults ← preset file (if --preset) ← options given. Throws InputError on bad values.
   Parameters resolve() const;
 

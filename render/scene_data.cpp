@@ -66,14 +66,6 @@ std::shared_ptr<const MeshMeasures> make_mesh_measures(const TetMesh& mesh) {
   return m;
 }
 
-Stage stage_of_record(const std::string& name) {
-  for (int st = 0; st < kStageCount; ++st)
-    if (name == stage_name(Stage(st))) return Stage(st);
-  if (name == "quality" || name == "fidelity") return Stage::evaluate;
-  if (name == "optimisation passes") return Stage::optimize;  // stepped (Pipeline::step_optimization)
-  return Stage::count;
-}
-
 double stage_seconds(const std::vector<StageRecord>& records, Stage stage) {
   // The latest run: walk back over the records of this stage that follow each other.
   double total = -1;
@@ -148,7 +140,7 @@ std::shared_ptr<const SceneData> SceneDataBuilder::update(const Pipeline& pipeli
   pick(&SceneData::surface_voxel_samples, &PartGenerations::surface, surf != nullptr,
        ran[int(Stage::surface)],
        [&] { return std::make_shared<const std::vector<Vec3>>(surf->voxel_world); });
-  // Lloyd can move without a stage record (step_lloyd), and its state is small: always copy.
+  // The Lloyd state is small and moves with every step: always copied.
   if (pipeline.lloyd()) s->lloyd = make_lloyd_state(*pipeline.lloyd(), s->generation);
   const ShallowResult* sh = pipeline.shallow();
   pick(&SceneData::shallow, &PartGenerations::shallow, sh != nullptr, ran[int(Stage::shallow)],

@@ -92,9 +92,6 @@ struct SceneData {
   std::shared_ptr<const FidelityReport> fidelity;
 };
 
-// The stage a StageRecord belongs to: its name is the stage's name, or a part of it
-// ("quality", "fidelity" for evaluation); Stage::count for anything else.
-Stage stage_of_record(const std::string& name);
 // Seconds the latest run of `stage` took (its parts summed), or a negative value if none.
 double stage_seconds(const std::vector<StageRecord>& records, Stage stage);
 

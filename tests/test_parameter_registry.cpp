@@ -102,6 +102,11 @@ TEST(ParameterRegistry, EveryRowIsComplete) {
     if (ends("_deg")) EXPECT_EQ(spec.unit, "°");
     if (ends("_voxels")) EXPECT_EQ(spec.unit, "voxels");
     if (!spec.unit.empty()) EXPECT_NE(spec.label_with_unit().find(spec.unit), std::string::npos);
+    // Stage 6's counts say so (the others are caps and counts by their labels).
+    visit_parameter(spec, Parameters{}, [&](const auto& v) {
+      if (std::is_same_v<std::decay_t<decltype(v)>, int> && spec.section == "optimization")
+        EXPECT_NE(spec.tooltip.find("count"), std::string_view::npos);
+    });
     // The default is valid, and a changed value differs from it.
     const Changed c = changed_value(spec);
     EXPECT_FALSE(same_value(spec, c.p, Parameters{}));
@@ -196,5 +201,22 @@ TEST(ParameterRegistry, EveryParameterMakesItsStageAndDownstreamStale) {
       EXPECT_EQ(pipe.is_stale(Stage(s)), s >= int(from)) << stage_name(Stage(s));
     pipe.set_parameters(base);
     pipe.run_all();
+  }
+  // With stage 6 off, its options have no effect: changing one re-runs nothing.
+  Parameters off = base;
+  off.optimize = OptimizeMode::none;
+  pipe.set_parameters(off);
+  pipe.run_all();
+  ASSERT_EQ(pipe.optimized(), nullptr);
+  ASSERT_EQ(pipe.final_mesh(), &pipe.mesh()->mesh);
+  for (const ParameterSpec& spec : parameter_registry()) {
+    if (spec.section != "optimization") continue;
+    SCOPED_TRACE(spec.name());
+    Parameters p = off;
+    copy_value(spec, changed_value(spec).p, p);
+    EXPECT_FALSE(is_active(spec, p));
+    EXPECT_EQ(first_changed_stage(off, p), Stage::count);
+    pipe.set_parameters(p);
+    for (int s = 0; s < kStageCount; ++s) EXPECT_FALSE(pipe.is_stale(Stage(s)));
   }
 }

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cctype>
+#include <stdexcept>
 #include <cstdio>
 #include <string>
 #include <vector>
@@ -21,7 +22,11 @@ const ImVec4 kDone{0.45f, 0.85f, 0.45f, 1.0f};
 const ImVec4 kPending{1.0f, 0.7f, 0.25f, 1.0f};
 const ImVec4 kStale{1.0f, 0.4f, 0.4f, 1.0f};
 
-const ParameterSpec& spec_of(std::string_view key) { return *find_parameter("", key); }
+const ParameterSpec& spec_of(std::string_view key) {
+  const ParameterSpec* spec = find_parameter("", key);
+  if (!spec) throw std::logic_error("no parameter " + std::string(key) + " in the registry");
+  return *spec;
+}
 
 const char* state_text(StageState s) {
   return s == StageState::done ? "done" : s == StageState::pending ? "edited" : "stale";
@@ -183,7 +188,9 @@ bool stage_section(UiContext& ctx, Stage st) {
   if (st == Stage::preprocess) changed |= edit_object_selection(ctx);
   for (const ParameterSpec& spec : parameter_registry()) {
     if (spec.stage != st || is_object_selection(spec)) continue;
+    ImGui::BeginDisabled(!is_active(spec, p));  // e.g. stage 6's options with it off
     changed |= edit_parameter(spec, p);
+    ImGui::EndDisabled();
     if (spec.key == "interior_spacing_mm" && scene && scene->default_interior_spacing_mm > 0 &&
         p.interior_spacing_mm == 0)
       ImGui::TextDisabled("auto spacing: %.3g mm", scene->default_interior_spacing_mm);

@@ -97,7 +97,8 @@ void Session::step_optimization(int passes) {
   target_ = std::max(target_, Stage::optimize);
   if (edited.optimize != OptimizeMode::standard) {
     edited.optimize = OptimizeMode::standard;
-    message(false, "optimisation turned on (optimize = default)");
+    message(false, "optimisation turned on (optimize = " +
+                       std::string(optimize_word(OptimizeMode::standard)) + ")");
   }
   const int jobs = passes < 0 ? std::max(edited.optimization.max_passes, 1) : passes;
   for (int i = 0; i < jobs; ++i)

@@ -58,8 +58,8 @@ enum class StageState {
   pending,  // done, but an edited (not yet applied) parameter changes it
   stale,    // not run with the current parameters (or never)
 };
-// First stage the edited parameters change relative to the applied ones (count if none);
-// stage 6's options change the mesh stage when optimisation is on.
+// First stage the edited parameters change relative to the applied ones (count if none), as
+// the parameter registry tracks it.
 Stage first_edited_stage(const render::SceneData* scene, const Parameters& edited);
 std::array<StageState, kStageCount> stage_states(const render::SceneData* scene,
                                                  const Parameters& edited);

@@ -13,7 +13,7 @@
 
 namespace cvt {
 
-// One check of fidelity refinement (fidelity_refinement.h) and the round made from it, if any.
+// One check of fidelity refinement and the round made from it, if any.
 struct FidelityRefinementRound {
   std::size_t disagreeing_voxels = 0;  // voxels where mesh and object differ beyond tolerance
   std::size_t deep_boundary_samples = 0;  // interior samples on the boundary, deep in the object
@@ -76,11 +76,10 @@ std::vector<int> interior_samples_on_boundary(const MeshGenerationResult& m,
 
 // Stage 5 with up to max_rounds of refinement; the result records what was added and dropped.
 // A small_tet_edge_mm of 0 becomes 2 × the largest voxel spacing here.
-RefinedMesh build_refined_mesh(const PreprocessResult& pre,
-                                        const std::vector<Vec3>& surface,
-                                        const std::vector<Vec3>& interior,
-                                        const MeshGenerationOptions& generation,
-                                        const FidelityRefinementOptions& options,
-                                        const Progress& progress = {});
+RefinedMesh build_refined_mesh(const PreprocessResult& pre, const std::vector<Vec3>& surface,
+                               const std::vector<Vec3>& interior,
+                               const MeshGenerationOptions& generation,
+                               const FidelityRefinementOptions& options,
+                               const Progress& progress = {});
 
 }  // namespace cvt

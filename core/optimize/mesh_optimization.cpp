@@ -47,7 +47,7 @@ void validate(const TetMesh& mesh, const OptimizationOptions& o) {
   auto require = [](bool ok, const std::string& what) {
     if (!ok) throw InputError("mesh optimisation: " + what);
   };
-  cvt::validate(o);  // the option table's ranges, as presets and the CLI check them
+  cvt::validate(o);  // the parameter registry's ranges, as presets and the CLI check them
   require(mesh.labels.empty() || mesh.labels.size() == mesh.tets.size(),
           "one label per tet expected");
   const std::int64_t n = std::int64_t(mesh.vertices.size());

@@ -17,6 +17,7 @@ template <auto Member>
 ParameterRef opt(Parameters& p) {
   return &(p.optimization.*Member);
 }
+bool optimizing(const Parameters& p) { return p.optimize == OptimizeMode::standard; }
 
 constexpr double kInf = std::numeric_limits<double>::infinity();
 constexpr std::string_view kOpt = "optimization";
@@ -139,80 +140,80 @@ std::vector<ParameterSpec> make_registry() {
        .label = "target dihedral", .unit = "°", .stage = S::optimize,
        .tooltip = "Tets with a dihedral angle below this, or above 180° minus this, are bad and "
                   "worked on (degrees).",
-       .lo = 1, .hi = 35, .ref = opt<&O::target_dihedral_deg>},
+       .lo = 1, .hi = 35, .ref = opt<&O::target_dihedral_deg>, .active = optimizing},
       {.key = "max_passes", .section = kOpt, .cli = "opt-max-passes", .label = "max passes",
        .stage = S::optimize,
        .tooltip = "Most passes of stage 6; a pass that changes nothing ends it early (count).",
-       .lo = 0, .hi = 100, .ref = opt<&O::max_passes>},
+       .lo = 0, .hi = 100, .ref = opt<&O::max_passes>, .active = optimizing},
       {.key = "flips", .section = kOpt, .cli = "opt-flips", .label = "flips", .stage = S::optimize,
        .tooltip = "Edge removal (3-2, 4-4, ...) and 2-3 face flips on bad tets.",
-       .ref = opt<&O::flips>},
+       .ref = opt<&O::flips>, .active = optimizing},
       {.key = "boundary_flips", .section = kOpt, .cli = "opt-boundary-flips",
        .label = "boundary flips", .stage = S::optimize,
        .tooltip = "Swap the diagonal of two boundary triangles where the boundary is convex, and "
                   "remove corner tets, when the new triangles follow the segmentation surface.",
-       .ref = opt<&O::boundary_flips>},
+       .ref = opt<&O::boundary_flips>, .active = optimizing},
       {.key = "max_face_distance_voxels", .section = kOpt, .cli = "opt-max-face-distance-voxels",
        .label = "max face distance", .unit = "voxels", .stage = S::optimize,
        .tooltip = "Boundary flips: largest distance of a new boundary triangle from the surface "
                   "(0.5 level), in smallest voxel spacings.",
-       .lo = 0, .hi = 5, .ref = opt<&O::max_face_distance_voxels>},
+       .lo = 0, .hi = 5, .ref = opt<&O::max_face_distance_voxels>, .active = optimizing},
       {.key = "max_boundary_shift_mm", .section = kOpt, .cli = "opt-max-boundary-shift-mm",
        .label = "max boundary shift", .unit = "mm", .stage = S::optimize,
        .tooltip = "Boundary flips without the smoothed indicator: largest boundary move allowed "
                   "(mm; 0 = none).",
-       .lo = 0, .hi = 10, .ref = opt<&O::max_boundary_shift_mm>},
+       .lo = 0, .hi = 10, .ref = opt<&O::max_boundary_shift_mm>, .active = optimizing},
       {.key = "insert_vertices", .section = kOpt, .cli = "opt-insert-vertices",
        .label = "insert vertices", .stage = S::optimize,
        .tooltip = "Insert interior vertices where flips and moves cannot help (appended after the "
                   "mesh's vertices).",
-       .ref = opt<&O::insert_vertices>},
+       .ref = opt<&O::insert_vertices>, .active = optimizing},
       {.key = "smooth_interior", .section = kOpt, .cli = "opt-smooth-interior",
        .label = "move interior vertices", .stage = S::optimize,
        .tooltip = "Move interior vertices to raise the worst tet of their star.",
-       .ref = opt<&O::smooth_interior>},
+       .ref = opt<&O::smooth_interior>, .active = optimizing},
       {.key = "smooth_surface", .section = kOpt, .cli = "opt-smooth-surface",
        .label = "slide surface vertices", .stage = S::optimize,
        .tooltip = "Slide boundary vertices along the sub-voxel surface (0.5 level of the smoothed "
                   "indicator).",
-       .ref = opt<&O::smooth_surface>},
+       .ref = opt<&O::smooth_surface>, .active = optimizing},
       {.key = "smoothing_iterations", .section = kOpt, .cli = "opt-smoothing-iterations",
        .label = "smoothing iterations", .stage = S::optimize,
        .tooltip = "Ascent steps per vertex and pass (count).", .lo = 0, .hi = 50,
-       .ref = opt<&O::smoothing_iterations>},
+       .ref = opt<&O::smoothing_iterations>, .active = optimizing},
       {.key = "odt_passes", .section = kOpt, .cli = "opt-odt-passes", .label = "ODT passes",
        .stage = S::optimize,
        .tooltip = "In this many first passes, a global ODT sweep moves the interior vertices "
                   "towards the volume-weighted mean of their tets' circumcentres (count).",
-       .lo = 0, .hi = 100, .ref = opt<&O::odt_passes>},
+       .lo = 0, .hi = 100, .ref = opt<&O::odt_passes>, .active = optimizing},
       {.key = "odt_iterations", .section = kOpt, .cli = "opt-odt-iterations",
        .label = "ODT iterations", .stage = S::optimize,
        .tooltip = "ODT sweeps per such pass (count).", .lo = 0, .hi = 20,
-       .ref = opt<&O::odt_iterations>},
+       .ref = opt<&O::odt_iterations>, .active = optimizing},
       // Off by default: on the liver it gave +1.5 % good tets for +60 % stage-6 time.
       {.key = "odt_flips", .section = kOpt, .cli = "opt-odt-flips", .label = "flips after ODT",
        .stage = S::optimize,
        .tooltip = "Delaunay flips after each ODT sweep (a little better, much slower).",
-       .ref = opt<&O::odt_flips>},
+       .ref = opt<&O::odt_flips>, .active = optimizing},
       // The global flip passes lift Table I's good bins (on the liver +2.5 % in each measure for
       // ~0.2 s), not only the bad tets.
       {.key = "global_flip_passes", .section = kOpt, .cli = "opt-global-flip-passes",
        .label = "global flip passes", .stage = S::optimize,
        .tooltip = "In this many first passes, flips also work on mediocre tets (quality below the "
                   "next value), not only bad ones (count).",
-       .lo = 0, .hi = 100, .ref = opt<&O::global_flip_passes>},
+       .lo = 0, .hi = 100, .ref = opt<&O::global_flip_passes>, .active = optimizing},
       {.key = "global_flip_below", .section = kOpt, .cli = "opt-global-flip-below",
        .label = "global flip below", .stage = S::optimize,
        .tooltip = "Quality below which those passes flip a tet (1 = bad; the quality is the "
                   "smallest of each measure over its bad-bin edge, unitless).",
-       .lo = 1, .hi = 10, .ref = opt<&O::global_flip_below>},
+       .lo = 1, .hi = 10, .ref = opt<&O::global_flip_below>, .active = optimizing},
       // Interior samples that stage 5's peeling exposed are on the boundary but off the surface:
       // sliding them onto it would move the boundary, so they stay.
       {.key = "surface_tolerance_voxels", .section = kOpt, .cli = "opt-surface-tolerance-voxels",
        .label = "surface tolerance", .unit = "voxels", .stage = S::optimize,
        .tooltip = "Boundary vertices farther than this from the surface are not surface samples "
                   "and stay fixed (smallest voxel spacings).",
-       .lo = 0, .hi = 2, .ref = opt<&O::surface_tolerance_voxels>},
+       .lo = 0, .hi = 2, .ref = opt<&O::surface_tolerance_voxels>, .active = optimizing},
       // No stage: how the run is carried out.
       {.key = "threads", .cli = "threads", .label = "threads",
        .tooltip = "Worker threads. Results do not depend on it.", .lo = 0, .hi = 1024,
@@ -248,10 +249,12 @@ void check(const ParameterSpec& spec, const Parameters& p) {
              (spec.hi_open ? x < spec.hi : x <= spec.hi);
     };
     if constexpr (std::is_same_v<T, double>) {
-      require(std::isfinite(v) && in_range(v), spec,
-              range_text(spec).empty() ? "must be a finite number" : range_text(spec));
+      if (!(std::isfinite(v) && in_range(v))) {
+        const std::string range = range_text(spec);
+        require(false, spec, range.empty() ? "must be a finite number" : range);
+      }
     } else if constexpr (is_integer_v<T>) {
-      require(in_range(double(v)), spec, range_text(spec));
+      if (!in_range(double(v))) require(false, spec, range_text(spec));
     } else if constexpr (std::is_same_v<T, std::optional<double>>) {
       require(!v || std::isfinite(*v), spec, "must be a finite number");
     } else if constexpr (std::is_same_v<T, OptimizeMode>) {
@@ -263,6 +266,10 @@ void check(const ParameterSpec& spec, const Parameters& p) {
 }
 
 }  // namespace
+
+std::string_view optimize_word(OptimizeMode mode) {
+  return find_parameter("", "optimize")->words[int(mode)];
+}
 
 std::string ParameterSpec::name() const {
   return section.empty() ? std::string(key) : std::string(section) + "." + std::string(key);
@@ -353,7 +360,9 @@ void validate(const OptimizationOptions& options) {
 Stage first_changed_stage(const Parameters& a, const Parameters& b) {
   Stage first = Stage::count;
   for (const ParameterSpec& spec : parameter_registry())
-    if (stales_from(spec) < first && !same_value(spec, a, b)) first = stales_from(spec);
+    if (stales_from(spec) < first && (is_active(spec, a) || is_active(spec, b)) &&
+        !same_value(spec, a, b))
+      first = stales_from(spec);
   return first;
 }
 

@@ -45,6 +45,9 @@ struct ParameterSpec {
   std::array<double, 2> slider{};  // the viewer shows a slider over this range (if hi > lo)
   std::string_view excludes;       // a CLI option it cannot be given with
   ParameterRef (*ref)(Parameters&) = nullptr;
+  // Null, or false where the parameter has no effect (stage 6's options with optimize = none):
+  // a change then re-runs nothing and the viewer greys it out.
+  bool (*active)(const Parameters&) = nullptr;
 
   // "optimization.max_passes" or "r": the name errors use.
   std::string name() const;
@@ -83,6 +86,11 @@ std::string range_text(const ParameterSpec& spec);
 inline Stage stales_from(const ParameterSpec& spec) {
   return spec.changes_no_result ? Stage::count : spec.stage;
 }
+inline bool is_active(const ParameterSpec& spec, const Parameters& p) {
+  return !spec.active || spec.active(p);
+}
+// The word a preset and the CLI use for a value of the optimize switch ("none", "default").
+std::string_view optimize_word(OptimizeMode mode);
 // The first stage whose result depends on a parameter that differs (Stage::count if none).
 Stage first_changed_stage(const Parameters& a, const Parameters& b);
 

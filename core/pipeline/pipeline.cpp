@@ -1,13 +1,10 @@
 #include "pipeline/pipeline.h"
 
-#include <algorithm>
 #include <chrono>
-#include <cmath>
 
 #include "base/errors.h"
 #include "pipeline/parameter_registry.h"
 #include "base/memory.h"
-#include "fields/smoothing.h"
 
 namespace cvt {
 
@@ -145,7 +142,7 @@ void Pipeline::run_stage(Stage s, const Progress& progress) {
       break;
     case Stage::cvt:
       if (!lloyd_) start_lloyd();
-      lloyd_->run_to_convergence(progress);
+      run_lloyd(-1, progress);
       break;
     case Stage::shallow:
       shallow_ = std::make_unique<ShallowResult>(remove_shallow_points(
@@ -157,7 +154,11 @@ void Pipeline::run_stage(Stage s, const Progress& progress) {
                              mesh_options(parameters_), refinement_options(parameters_), progress));
       break;
     case Stage::optimize:
-      if (parameters_.optimize == OptimizeMode::standard) optimize_passes(-1, progress);
+      if (parameters_.optimize == OptimizeMode::none) {  // off: stage 5's mesh is the result
+        done_[int(s)] = true;
+        return;
+      }
+      optimize_passes(-1, progress);
       break;
     case Stage::evaluate:
       evaluate(progress);  // records its two parts itself
@@ -176,14 +177,16 @@ void Pipeline::evaluate(const Progress& progress) {
   // Two records, so element quality and the (slower) fidelity are timed apart.
   const TetMesh& mesh = *final_mesh();
   auto t0 = std::chrono::steady_clock::now();
-  progress("quality", 0.0);
+  progress(std::string(kQualityRecord), 0.0);
   quality_ = std::make_unique<QualityReport>(compute_quality(mesh));
-  record("quality", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
-  progress("fidelity", 0.5);
+  record(std::string(kQualityRecord),
+         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  progress(std::string(kFidelityRecord), 0.5);
   t0 = std::chrono::steady_clock::now();
   fidelity_ = std::make_unique<FidelityReport>(
       compute_fidelity(mesh, preprocess_->object, {}, progress));
-  record("fidelity", std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  record(std::string(kFidelityRecord),
+         std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
 }
 
 void Pipeline::run_through(Stage last, const Progress& progress) {
@@ -192,7 +195,7 @@ void Pipeline::run_through(Stage last, const Progress& progress) {
 }
 
 int Pipeline::optimize_passes(int k, const Progress& progress) {
-  progress("optimisation", 0.0);
+  progress(std::string(stage_name(Stage::optimize)), 0.0);
   if (!optimizer_)
     optimizer_ = std::make_unique<MeshOptimizer>(mesh_->mesh, &preprocess_->indicator,
                                                  parameters_.optimization, pass_statistics_);
@@ -223,13 +226,15 @@ int Pipeline::optimize_passes(int k, const Progress& progress) {
 
 int Pipeline::step_optimization(int k, const Progress& progress) {
   if (parameters_.optimize != OptimizeMode::standard)
-    throw InputError("optimize: stage 6 is off (optimize = none); set it to default to step it");
+    throw InputError("optimize: stage 6 is off (optimize = " +
+                     std::string(optimize_word(parameters_.optimize)) + "); set it to " +
+                     std::string(optimize_word(OptimizeMode::standard)) + " to step it");
   run_through(Stage::mesh, progress);
   if (done_[int(Stage::optimize)]) return 0;  // finished already
   invalidate_from(Stage::evaluate);
   const auto t0 = std::chrono::steady_clock::now();
   const int done = optimize_passes(k, progress);
-  record("optimisation passes",
+  record(std::string(kOptimizationPassesRecord),
          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
   done_[int(Stage::optimize)] = !optimizer_;
   return done;
@@ -239,10 +244,20 @@ int Pipeline::step_lloyd(int k, const Progress& progress) {
   run_through(Stage::surface, progress);
   if (!lloyd_) start_lloyd();
   invalidate_from(Stage::shallow);
-  const int done = k < 0 ? lloyd_->run_to_convergence(progress) : lloyd_->run(k, progress);
+  const int done = run_lloyd(k, progress);
   done_[int(Stage::cvt)] = lloyd_->converged();
-  ++generation_[int(Stage::cvt)];
   return done;
+}
+
+int Pipeline::run_lloyd(int k, const Progress& progress) {
+  try {
+    const int done = k < 0 ? lloyd_->run_to_convergence(progress) : lloyd_->run(k, progress);
+    ++generation_[int(Stage::cvt)];
+    return done;
+  } catch (const Cancelled&) {
+    ++generation_[int(Stage::cvt)];  // the sites moved as far as the cancel let them
+    throw;
+  }
 }
 
 }  // namespace cvt

@@ -41,8 +41,7 @@ struct OptimizedMesh {
 };
 
 struct StageRecord {
-  std::string name;  // stage_name, or a part of a stage ("quality", "fidelity", "optimisation
-                     // passes" when stepped)
+  std::string name;  // stage_name, or a part of a stage (kQualityRecord ... in stage.h)
   double wall_s = 0;
   double peak_rss_mb = 0;  // process peak so far, when the stage ended
 };
@@ -65,7 +64,7 @@ class Pipeline {
   // Lloyd stepping (stage 3): runs stages 1–2 if stale, starts the stepper if needed, then k
   // iterations (or to convergence with k < 0); later stages become stale. Returns iterations.
   int step_lloyd(int k, const Progress& progress = {});
-  // Stage 6 stepping, with optimize = default (else InputError): runs stages 1–5 if stale,
+  // Stage 6 stepping, with optimisation on (else InputError): runs stages 1–5 if stale,
   // starts the optimiser on the stage-5 mesh if needed, then k passes (to the end with k < 0);
   // optimized() follows every call, evaluation becomes stale, and stage 6 is done once the
   // optimiser has finished. Returns the passes run.
@@ -97,6 +96,7 @@ class Pipeline {
   void evaluate(const Progress& progress);
   void invalidate_from(Stage s);
   void start_lloyd();
+  int run_lloyd(int k, const Progress& progress);        // k < 0: to convergence
   int optimize_passes(int k, const Progress& progress);  // k < 0: to the end
   void record(std::string name, double wall_s);
 

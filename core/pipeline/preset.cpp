@@ -1,12 +1,9 @@
 #include "pipeline/preset.h"
 
 #include <algorithm>
-#include <cmath>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <limits>
-#include <sstream>
 #include <utility>
 #include <unistd.h>
 
@@ -42,9 +39,6 @@ void read_value(const json& j, const ParameterSpec& spec, T& out) {
   } else if constexpr (std::is_floating_point_v<T>) {
     if (!j.is_number()) throw InputError(key + ": expected a number, got " + type_name(j));
     out = j.get<T>();
-  } else if constexpr (std::is_same_v<T, std::string>) {
-    if (!j.is_string()) throw InputError(key + ": expected a string, got " + type_name(j));
-    out = j.get<std::string>();
   } else if constexpr (std::is_same_v<T, std::optional<double>>) {
     if (j.is_null()) {
       out.reset();
@@ -106,13 +100,17 @@ Parameters parameters_from_json(const json& j, const Parameters& base) {
                        (section.empty() ? key : std::string(section) + "." + key) + "'");
     visit_parameter(*spec, p, [&](auto& member) { read_value(value, *spec, member); });
   };
+  const auto& registry = parameter_registry();
   for (auto it = j.begin(); it != j.end(); ++it) {
-    if (it.key() == "optimization") {
-      if (!it->is_object()) throw InputError("optimization: expected an object of stage-6 options");
-      for (auto o = it->begin(); o != it->end(); ++o) read("optimization", o.key(), *o);
-    } else {
+    const bool section = std::any_of(registry.begin(), registry.end(), [&](const ParameterSpec& s) {
+      return !s.section.empty() && s.section == it.key();
+    });
+    if (!section) {
       read("", it.key(), *it);
+      continue;
     }
+    if (!it->is_object()) throw InputError(it.key() + ": expected an object of options");
+    for (auto o = it->begin(); o != it->end(); ++o) read(it.key(), o.key(), *o);
   }
   validate(p);
   return p;

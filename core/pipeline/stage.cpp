@@ -32,4 +32,12 @@ std::optional<Stage> stage_from_key(std::string_view key) {
   return std::nullopt;
 }
 
+Stage stage_of_record(std::string_view name) {
+  for (int s = 0; s < kStageCount; ++s)
+    if (kStages[s].name == name) return Stage(s);
+  if (name == kQualityRecord || name == kFidelityRecord) return Stage::evaluate;
+  if (name == kOptimizationPassesRecord) return Stage::optimize;
+  return Stage::count;
+}
+
 }  // namespace cvt

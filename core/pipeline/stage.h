@@ -25,4 +25,12 @@ std::string_view stage_key(Stage stage);
 std::string_view stage_name(Stage stage);
 std::optional<Stage> stage_from_key(std::string_view key);
 
+// Run records of a part of a stage: evaluation times its two parts apart, and stage 6 stepped
+// pass by pass records each step.
+inline constexpr std::string_view kQualityRecord = "quality";
+inline constexpr std::string_view kFidelityRecord = "fidelity";
+inline constexpr std::string_view kOptimizationPassesRecord = "optimisation passes";
+// The stage a run record (a stage_name or a part's name) belongs to; Stage::count for none.
+Stage stage_of_record(std::string_view name);
+
 }  // namespace cvt
