@@ -1,7 +1,6 @@
 // From a segmented image to a tetrahedral mesh file, calling the stages one by one (what
 // `cvtmesh mesh IMAGE -o OUT` does through the Pipeline, with its default parameters).
 //   mesh_image IMAGE OUT.(mesh|vtu|msh|inp|feb|node|stl|ply|obj)
-#include <cstdint>
 #include <cstdio>
 #include <exception>
 
@@ -30,14 +29,9 @@ int main(int argc, char** argv) {
     const SurfaceSamples surface = sample_surface(pre, surface_options);
     // 3. Interior samples I by Lloyd's algorithm, as far apart as the surface samples are (their
     //    spacing r·lfs, weighted by the area each one covers).
-    double s2 = 0, s3 = 0;
-    for (const std::int32_t voxel : surface.voxels) {
-      const double s = surface_options.r * pre.lfs_mm.data[voxel];
-      s2 += s * s;
-      s3 += s * s * s;
-    }
     CvtOptions cvt_options;
-    cvt_options.interior_spacing_mm = s3 / s2;  // mm
+    cvt_options.interior_spacing_mm =
+        area_weighted_spacing_mm(surface, pre.lfs_mm, surface_options.r);  // mm
     cvt_options.max_iterations = 50;
     LloydStepper lloyd(pre, cvt_options);
     lloyd.run_to_convergence();
@@ -46,7 +40,7 @@ int main(int argc, char** argv) {
         remove_shallow_points(lloyd.sites_world(), lloyd.owners_of(pre.boundary));
     // 5. Delaunay of B, I and the exterior poles, outside tets removed, refined where the mesh
     //    departs from the object.
-    MeshGenerationResult result =
+    RefinedMesh result =
         build_refined_mesh(pre, surface.world, interior.kept_world, MeshGenerationOptions{},
                            FidelityRefinementOptions{});
     // 6. Optimisation: flips, vertex moves and insertions remove the slivers.

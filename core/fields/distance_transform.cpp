@@ -24,6 +24,7 @@
 #include <vector>
 
 #include "base/errors.h"
+#include "base/multiversion.h"
 #include "fields/byte_runs.h"
 
 #ifdef __linux__
@@ -38,16 +39,8 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 // (TLB) miss of each strided k row, while a 32 × 1000 tile of values + indices stays in L2.
 constexpr int kTileWidth = 32;
 
-// The envelope code is compiled twice on x86-64 GCC, for the baseline (SSE2) and for AVX2, and
-// the version is picked at load time: AVX2's three-operand forms need fewer register copies. No
-// contraction into fused multiply-adds (core/CMakeLists.txt), so both round identically.
-#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__linux__)
-#define CVT_ENVELOPE_CLONES __attribute__((target_clones("avx2", "default")))
-#define CVT_INLINE_IN_CLONES __attribute__((always_inline)) inline
-#else
-#define CVT_ENVELOPE_CLONES
-#define CVT_INLINE_IN_CLONES inline
-#endif
+// The envelope code has an AVX2 version (base/multiversion.h): its three-operand forms need
+// fewer register copies.
 
 // Per-thread work memory, sized once for the longest axis so no line allocates.
 struct Scratch {
@@ -121,7 +114,7 @@ void scan_row(const unsigned char* mask, float* value, std::int32_t* index, int 
 // intervals hold one or two samples, so rather than a loop per parabola (a mispredicted exit
 // each), count the interval ends at each sample and walk the samples once, branch-free.
 template <bool kNearest>
-CVT_ENVELOPE_CLONES void fill_from_envelope(float* value, std::int32_t* index, double w, int lo,
+CVT_CLONES void fill_from_envelope(float* value, std::int32_t* index, double w, int lo,
                                             int hi, int m, Scratch& s) {
   constexpr int stride = kTileWidth;
   const double* site = s.site.data();
@@ -250,7 +243,7 @@ void copy_row(const T* from, int width, T* to) {
 // Runs envelope_line over the `width` adjacent lines starting at `first`, each `n` samples at
 // `stride` apart in the volume, through the tile buffer (contiguous row copies in and out).
 template <bool kNearest>
-CVT_ENVELOPE_CLONES void envelope_tile(float* value, std::int32_t* index, std::size_t first,
+CVT_CLONES void envelope_tile(float* value, std::int32_t* index, std::size_t first,
                                        int width, int n, std::size_t stride, double w,
                                        const double* w_q2, Scratch& s) {
   float* tv = s.tile_value.data();

@@ -101,15 +101,7 @@ const TetMesh* Pipeline::final_mesh() const {
 
 double Pipeline::default_interior_spacing_mm() const {
   if (!surface_ || surface_->voxels.empty()) return 0;
-  // Samples crowd where lfs is small, so weight each one's spacing s = r·lfs by the surface
-  // area it covers (∝ s²): Σ s³ / Σ s². The interior then matches the bulk of the surface.
-  double s2 = 0, s3 = 0;
-  for (std::int32_t v : surface_->voxels) {
-    const double s = parameters_.r * preprocess_->lfs_mm.data[v];
-    s2 += s * s;
-    s3 += s * s * s;
-  }
-  return s3 / s2;
+  return area_weighted_spacing_mm(*surface_, preprocess_->lfs_mm, parameters_.r);
 }
 
 void Pipeline::start_lloyd() {

@@ -86,7 +86,7 @@ class Pipeline {
   // Counts every change of `s`'s result (a run, a Lloyd step, an optimisation pass, a reset),
   // so a viewer can tell a new result without comparing addresses.
   std::uint64_t generation(Stage s) const { return generation_[int(s)]; }
-  // Default interior spacing: the area-weighted mean spacing r·lfs of the surface samples.
+  // Default interior spacing: area_weighted_spacing_mm of the surface samples.
   double default_interior_spacing_mm() const;
 
   const std::vector<StageRecord>& records() const { return records_; }

@@ -19,6 +19,7 @@
 #include <utility>
 
 #include "base/errors.h"
+#include "base/multiversion.h"
 
 namespace cvt {
 
@@ -130,20 +131,19 @@ template <class V, class M>
   }
 }
 
-// One version per instruction set; GCC picks one at load time (function multiversioning). Both
-// round alike (cvtcore builds with -ffp-contract=off: no fused multiply-adds), so the owners do
-// not depend on the CPU. The widths differ because GCC 12 scalarises comparisons on vectors wider
-// than the target's: a 4-lane kernel compiled for the SSE2 baseline would be scalar code. An
-// AVX-512 version (one register per row) measured 5–10 % slower than AVX2 on the liver, so there
-// is none.
-#if defined(__x86_64__) || defined(__i386__)
+// One version per instruction set (base/multiversion.h), here as two target versions of one
+// template rather than clones of one body, because the vector width differs: GCC 12 scalarises
+// comparisons on vectors wider than the target's, so a 4-lane kernel compiled for the SSE2
+// baseline would be scalar code. An AVX-512 version (one register per row) measured 5–10 %
+// slower than AVX2 on the liver, so there is none.
+#if CVT_MULTIVERSION
 [[gnu::target("default")]]
 #endif
 void nearest_in_row(const double* xs, double y, double z, const Candidates& c, double* cyz,
                     double* best, double* arg) {
   row_kernel<V2, M2>(xs, y, z, c, cyz, best, arg);
 }
-#if defined(__x86_64__) || defined(__i386__)
+#if CVT_MULTIVERSION
 [[gnu::target("avx2")]] void nearest_in_row(const double* xs, double y, double z,
                                             const Candidates& c, double* cyz, double* best,
                                             double* arg) {

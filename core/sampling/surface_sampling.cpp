@@ -35,6 +35,17 @@ bool project_to_level_set(const Volume<float>& field, float level, Vec3& index,
   return true;
 }
 
+double area_weighted_spacing_mm(const SurfaceSamples& samples, const Volume<float>& lfs_mm,
+                                double r) {
+  double s2 = 0, s3 = 0;
+  for (std::int32_t v : samples.voxels) {
+    const double s = r * lfs_mm.data[v];
+    s2 += s * s;
+    s3 += s * s * s;
+  }
+  return s2 > 0 ? s3 / s2 : 0.0;
+}
+
 SurfaceSamples sample_surface(const PreprocessResult& pre, const SurfaceSamplingOptions& options,
                               const Progress& progress) {
   if (!(options.r > 0 && options.r < 1)) throw InputError("--r: must be in (0, 1)");

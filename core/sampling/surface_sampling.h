@@ -39,6 +39,12 @@ inline double surface_energy(double priority_mm2, double sigma_mm) {
 SurfaceSamples sample_surface(const PreprocessResult& pre, const SurfaceSamplingOptions& options,
                               const Progress& progress = {});
 
+// The interior spacing that matches the surface samples: their spacing s = r·lfs, weighted by
+// the surface area each one covers (∝ s²), Σ s³ / Σ s² (mm). Samples crowd where lfs is small,
+// so this matches the bulk of the surface rather than its fine parts. 0 without samples.
+double area_weighted_spacing_mm(const SurfaceSamples& samples, const Volume<float>& lfs_mm,
+                                double r);
+
 // Moves a point (continuous index) onto the `level` set of `field` by Newton steps along the
 // physical gradient; returns false (and leaves `index`) when it does not converge within
 // max_move_voxels × the largest voxel spacing.
