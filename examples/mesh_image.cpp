@@ -8,6 +8,7 @@
 #include "io/mesh_export.h"
 #include "meshing/fidelity_refinement.h"
 #include "optimize/mesh_optimization.h"
+#include "pipeline/pipeline.h"
 #include "preprocess/preprocess.h"
 #include "sampling/cvt_sampling.h"
 #include "sampling/shallow_points.h"
@@ -22,18 +23,15 @@ int main(int argc, char** argv) {
   }
   try {
     const Image image = read_image(argv[1]);
+    // Every stage's options from the default parameters (the registry's defaults).
+    const Parameters p;
     // 1. The object (every non-zero label), its smoothed indicator and local feature size.
-    const PreprocessResult pre = preprocess(image, PreprocessOptions{});
+    const PreprocessResult pre = preprocess(image, preprocess_options(p));
     // 2. Surface samples B: every boundary voxel within r·lfs of one.
-    const SurfaceSamplingOptions surface_options;  // r = 0.4
-    const SurfaceSamples surface = sample_surface(pre, surface_options);
+    const SurfaceSamples surface = sample_surface(pre, surface_options(p));
     // 3. Interior samples I by Lloyd's algorithm, as far apart as the surface samples are (their
     //    spacing r·lfs, weighted by the area each one covers).
-    CvtOptions cvt_options;
-    cvt_options.interior_spacing_mm =
-        area_weighted_spacing_mm(surface, pre.lfs_mm, surface_options.r);  // mm
-    cvt_options.max_iterations = 50;
-    LloydStepper lloyd(pre, cvt_options);
+    LloydStepper lloyd(pre, cvt_options(p, area_weighted_spacing_mm(surface, pre.lfs_mm, p.r)));
     lloyd.run_to_convergence();
     // 4. Drop the interior samples whose Voronoi region reaches the boundary.
     const ShallowResult interior =
@@ -41,10 +39,10 @@ int main(int argc, char** argv) {
     // 5. Delaunay of B, I and the exterior poles, outside tets removed, refined where the mesh
     //    departs from the object.
     RefinedMesh result =
-        build_refined_mesh(pre, surface.world, interior.kept_world, MeshGenerationOptions{},
-                           FidelityRefinementOptions{});
+        build_refined_mesh(pre, surface.world, interior.kept_world, mesh_options(p),
+                           refinement_options(p));
     // 6. Optimisation: flips, vertex moves and insertions remove the slivers.
-    optimize_mesh(result.mesh, &pre.indicator);
+    optimize_mesh(result.mesh, &pre.indicator, p.optimization);
     write_mesh_with_quality(result.mesh, argv[2]);
     std::printf("%zu surface + %zu interior samples -> %zu vertices, %zu tets -> %s\n",
                 surface.world.size(), interior.kept_world.size(), result.mesh.vertices.size(),
