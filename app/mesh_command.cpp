@@ -32,6 +32,7 @@ namespace {
 struct MeshArgs {
   std::string image, output, report, save_preset;
   bool quiet = false;
+  bool evaluate = false;
   std::unique_ptr<ParameterOptions> parameters;
 };
 
@@ -105,6 +106,7 @@ void run(const MeshArgs& args) {
     };
   Pipeline pipe;
   pipe.set_parameters(parameters);
+  pipe.set_evaluate_fidelity(args.evaluate);
   pipe.set_image(std::make_shared<Image>(read_image(args.image)));
   pipe.run_all(progress);
 
@@ -140,6 +142,12 @@ void run(const MeshArgs& args) {
                  mesh.vertices.size(), mesh.tets.size(), args.output.c_str(), total,
                  pipe.records().back().peak_rss_mb,
                  pipe.quality()->validity.valid ? "valid" : "NOT VALID");
+    if (const FidelityReport* f = pipe.fidelity())
+      std::fprintf(stderr,
+                   "cvtmesh: fidelity: Hausdorff %.2f mm, mean %.3f mm, 95th percentile %.2f mm, "
+                   "volume error %+.2f %%\n",
+                   f->distance.hausdorff_mm, f->distance.mean_mm, f->distance.p95_mm,
+                   f->volume_error_percent);
   }
 }
 
@@ -155,6 +163,9 @@ void add_mesh_command(CLI::App& app) {
   cmd->add_option("--report", args->report, "Write a JSON run report here");
   cmd->add_option("--save-preset", args->save_preset, "Write the parameters used as a preset");
   cmd->add_flag("-q,--quiet", args->quiet, "No progress on stderr");
+  cmd->add_flag("--evaluate", args->evaluate,
+                "Also measure the mesh's fidelity to the segmentation (distances, volume error) "
+                "for the summary and the report; costs about as much as a stage");
   args->parameters = std::make_unique<ParameterOptions>(cmd);
   cmd->callback([args] { run(*args); });
 }

@@ -22,7 +22,7 @@ cvtmesh = os.path.join(root, "build", "app", "cvtmesh")
 with tempfile.TemporaryDirectory() as tmp:
     report_path = os.path.join(tmp, "report.json")
     cmd = [cvtmesh, "mesh", image, "-o", os.path.join(tmp, "mesh.vtu"), "--report", report_path,
-           "-q", *extra]
+           "-q", "--evaluate", *extra]
     subprocess.run(cmd, check=True)
     r = json.load(open(report_path))
 

@@ -99,12 +99,12 @@ class CtrlC(unittest.TestCase):
     def test_fidelity_check(self):
         self.interrupt("fidelity check")
 
-    # Fidelity evaluation: marching cubes, then distance queries for a few seconds.
+    # Fidelity evaluation (on request): marching cubes, then distance queries.
     def test_fidelity(self):
-        self.interrupt("fidelity")
+        self.interrupt("fidelity", "--evaluate")
 
     def test_fidelity_distances(self):
-        self.interrupt("fidelity", delay=1.0)
+        self.interrupt("fidelity", "--evaluate", delay=0.2)
 
     # Stage 6 checks between chunks of each phase of a pass.
     def test_optimisation(self):

@@ -51,7 +51,8 @@ class MeshLiver(unittest.TestCase):
         cls.dir = tempfile.TemporaryDirectory()
         cls.mesh = os.path.join(cls.dir.name, "liver.mesh")
         cls.report_path = os.path.join(cls.dir.name, "report.json")
-        r = run("mesh", LIVER, "-o", cls.mesh, "--report", cls.report_path, "--threads", "2", "-q")
+        r = run("mesh", LIVER, "-o", cls.mesh, "--report", cls.report_path, "--threads", "2", "-q",
+                "--evaluate")
         assert r.returncode == 0, r.stderr
         with open(cls.report_path) as f:
             cls.report = json.load(f)
@@ -91,7 +92,7 @@ class MeshLiver(unittest.TestCase):
         with tempfile.TemporaryDirectory() as d:
             report = os.path.join(d, "report.json")
             r = run("mesh", LIVER, "-o", os.path.join(d, "liver.mesh"), "--report", report,
-                    "--threads", "2", "-q", "--seed", "3", "--optimize", "none")
+                    "--threads", "2", "-q", "--seed", "3", "--optimize", "none", "--evaluate")
             self.assertEqual(r.returncode, 0, r.stderr)
             with open(report) as f:
                 rep = json.load(f)
@@ -125,10 +126,19 @@ class MeshLiver(unittest.TestCase):
     def test_same_input_same_bytes(self):
         again = os.path.join(self.dir.name, "again.mesh")
         preset = os.path.join(self.dir.name, "preset.json")
-        r = run("mesh", LIVER, "-o", again, "--threads", "2", "-q", "--save-preset", preset)
+        report = os.path.join(self.dir.name, "again.json")
+        r = run("mesh", LIVER, "-o", again, "--threads", "2", "-q", "--save-preset", preset,
+                "--report", report)
         self.assertEqual(r.returncode, 0, r.stderr)
         with open(self.mesh, "rb") as a, open(again, "rb") as b:
             self.assertTrue(a.read() == b.read(), "two runs gave different meshes")
+        # Without --evaluate (this run) the report has quality but no fidelity, and the mesh is
+        # the same as with it (the class's run).
+        with open(report) as f:
+            rep = json.load(f)
+        self.assertIn("quality", rep)
+        self.assertNotIn("fidelity", rep)
+        self.assertNotIn("fidelity", [s["name"] for s in rep["stages"]])
         # The saved preset reproduces the run too.
         third = os.path.join(self.dir.name, "third.mesh")
         r = run("mesh", LIVER, "-o", third, "--preset", preset, "-q")
@@ -198,7 +208,8 @@ class QualityFidelity(unittest.TestCase):
                         b"spacings: 1 1 1\nencoding: raw\n\n" + bytes(voxels))
             for cleanup in ([], ["--fill-cavities", "false", "--remove-small-components", "false"]):
                 mesh, report = os.path.join(tmp, "ball.mesh"), os.path.join(tmp, "r.json")
-                r = run("mesh", image, "-q", "-o", mesh, "--report", report, *cleanup)
+                r = run("mesh", image, "-q", "-o", mesh, "--report", report, "--evaluate",
+                        *cleanup)
                 self.assertEqual(r.returncode, 0, r.stderr)
                 with open(report) as f:
                     want = json.load(f)["fidelity"]

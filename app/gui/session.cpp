@@ -43,6 +43,7 @@ Parameters with_default_iso(Parameters p, const Image* image) {
 std::function<void(JobContext&)> Session::applying(std::function<void(JobContext&)> then) const {
   return [parameters = edited, then = std::move(then)](JobContext& ctx) {
     ctx.pipeline.set_pass_statistics(true);  // the panel plots every pass (~0.1 s a pass, liver)
+    ctx.pipeline.set_evaluate_fidelity(true);  // the panel shows it
     ctx.pipeline.set_parameters(with_default_iso(parameters, ctx.image.get()));
     then(ctx);
   };

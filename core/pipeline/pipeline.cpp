@@ -71,6 +71,16 @@ void Pipeline::set_parameters(const Parameters& parameters) {
   if (changed != Stage::count) invalidate_from(changed);
 }
 
+void Pipeline::set_evaluate_fidelity(bool on) {
+  if (on == evaluate_fidelity_) return;
+  evaluate_fidelity_ = on;
+  if (on && !fidelity_) invalidate_from(Stage::evaluate);
+  if (!on && fidelity_) {
+    fidelity_.reset();
+    ++generation_[int(Stage::evaluate)];
+  }
+}
+
 void Pipeline::invalidate_from(Stage s) {
   for (int i = int(s); i < kStageCount; ++i) {
     done_[i] = false;
@@ -173,6 +183,7 @@ void Pipeline::evaluate(const Progress& progress) {
   quality_ = std::make_unique<QualityReport>(compute_quality(mesh));
   record(std::string(kQualityRecord),
          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+  if (!evaluate_fidelity_) return;
   progress(std::string(kFidelityRecord), 0.5);
   t0 = std::chrono::steady_clock::now();
   fidelity_ = std::make_unique<FidelityReport>(

@@ -71,6 +71,10 @@ class Pipeline {
   int step_optimization(int k, const Progress& progress = {});
   // Table I and dihedral figures after every pass of stage 6 (the viewer's history).
   void set_pass_statistics(bool on) { pass_statistics_ = on; }
+  // Stage 7 always measures element quality (a tenth of a second); the fidelity to the
+  // segmentation only when asked, as it costs about as much as a stage. Off by default.
+  void set_evaluate_fidelity(bool on);
+  bool evaluates_fidelity() const { return evaluate_fidelity_; }
 
   // Results (null until the stage has run).
   const PreprocessResult* preprocess() const { return preprocess_.get(); }
@@ -112,6 +116,7 @@ class Pipeline {
   std::unique_ptr<MeshOptimizer> optimizer_;  // while stage 6 is part way or done
   std::unique_ptr<OptimizedMesh> optimized_;
   bool pass_statistics_ = false;
+  bool evaluate_fidelity_ = false;
   std::unique_ptr<QualityReport> quality_;
   std::unique_ptr<FidelityReport> fidelity_;
   std::vector<StageRecord> records_;

@@ -14,7 +14,7 @@ enum class Stage {
   shallow,     // 4: shallow-point removal
   mesh,        // 5: Delaunay mesh with exterior poles, fidelity refinement
   optimize,    // 6: optimisation (ours)
-  evaluate,    // 7: quality, validity and fidelity (ours)
+  evaluate,    // 7: quality and validity; fidelity when asked (ours)
   count        // not a stage: "no stage" where a Stage is expected
 };
 inline constexpr int kStageCount = int(Stage::count);
