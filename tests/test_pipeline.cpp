@@ -89,3 +89,58 @@ TEST(Pipeline, NoImageIsAClearError) {
   Pipeline pipe;
   EXPECT_THROW(pipe.run_all(), InputError);
 }
+
+TEST(Pipeline, FidelityOnlyWhenAsked) {
+  Pipeline pipe;
+  pipe.set_image(torus_image());
+  pipe.run_all();
+  ASSERT_NE(pipe.quality(), nullptr);
+  EXPECT_EQ(pipe.fidelity(), nullptr);
+  const std::uint64_t before = pipe.generation(Stage::evaluate);
+  pipe.set_evaluate_fidelity(true);  // only stage 7 becomes stale
+  EXPECT_FALSE(pipe.is_stale(Stage::optimize));
+  EXPECT_TRUE(pipe.is_stale(Stage::evaluate));
+  pipe.run_all();
+  ASSERT_NE(pipe.fidelity(), nullptr);
+  EXPECT_GT(pipe.generation(Stage::evaluate), before);
+  EXPECT_LT(pipe.fidelity()->distance.hausdorff_mm, 2.0);
+  pipe.set_evaluate_fidelity(false);
+  EXPECT_EQ(pipe.fidelity(), nullptr);
+  EXPECT_NE(pipe.quality(), nullptr);
+}
+
+TEST(Pipeline, SingleRunFreesItsInputsAndGivesTheSameMesh) {
+  Pipeline kept;
+  kept.set_image(torus_image());
+  kept.run_all();
+  std::weak_ptr<const Image> watch;
+  Pipeline once;
+  {
+    auto image = torus_image();
+    watch = image;
+    once.set_image(std::move(image), Pipeline::ImageUse::once);
+  }
+  once.run_all();
+  EXPECT_TRUE(watch.expired()) << "the image outlived stage 1";
+  EXPECT_EQ(once.image(), nullptr);
+  const PreprocessResult& pre = *once.preprocess();
+  EXPECT_TRUE(pre.medial_axis.data.empty());
+  EXPECT_TRUE(pre.lfs_mm.data.empty());
+  EXPECT_TRUE(pre.nearest_opposite.data.empty());
+  EXPECT_FALSE(pre.indicator.data.empty());  // stage 6 and the report still use these
+  EXPECT_FALSE(pre.object.data.empty());
+  const TetMesh &a = *kept.final_mesh(), &b = *once.final_mesh();
+  ASSERT_EQ(a.vertices.size(), b.vertices.size());
+  ASSERT_EQ(a.tets.size(), b.tets.size());
+  for (std::size_t v = 0; v < a.vertices.size(); ++v)
+    ASSERT_EQ(a.vertices[v].x, b.vertices[v].x) << v;
+  EXPECT_EQ(a.tets, b.tets);
+  // A stage that needs a freed input refuses to run again, with a message.
+  Parameters p = once.parameters();
+  p.r = 0.3;
+  once.set_parameters(p);
+  EXPECT_THROW(once.run_all(), InputError);
+  p.lfs_min_mm = 1.5;
+  once.set_parameters(p);
+  EXPECT_THROW(once.run_all(), InputError);
+}

@@ -162,7 +162,7 @@ FidelityFix find_fidelity_fix(const Mask& mesh_inside, const PreprocessResult& p
     for (int a = 0; a < 3; ++a)
       ijk[a] = std::clamp(int(std::lround(index[a])), 0, grid.dims[a] - 1);
     const std::size_t v = grid.linear(ijk[0], ijk[1], ijk[2]);
-    if (!object.data[v] || pre.distance_mm.data[v] <= tolerance_mm) continue;
+    if (!object.data[v] || distance_to_opposite_mm(pre, v) <= tolerance_mm) continue;
     fix.deep_boundary.push_back(e);
     add_sample_near(v);
   }
@@ -181,7 +181,7 @@ FidelityFix find_fidelity_fix(const Mask& mesh_inside, const PreprocessResult& p
     // Disagreeing voxel: the two boundaries are far apart near it when it lies deep on either
     // side (a pit or a bulge: far from the object boundary; a bridged channel: far from the
     // mesh boundary).
-    if (pre.distance_mm.data[v] <= tolerance_mm && mesh_boundary.near(grid.ijk(v))) continue;
+    if (distance_to_opposite_mm(pre, v) <= tolerance_mm && mesh_boundary.near(grid.ijk(v))) continue;
     ++fix.disagreeing_voxels;
     if (mesh_inside.data[v] && pre.indicator.data[v] < 0.5f)
       fix.outside_points.push_back(grid.voxel_to_world(v));

@@ -59,8 +59,9 @@ MeshGenerationOptions mesh_options(const Parameters& p) {
   return o;
 }
 
-void Pipeline::set_image(std::shared_ptr<const Image> image) {
+void Pipeline::set_image(std::shared_ptr<const Image> image, ImageUse use) {
   image_ = std::move(image);
+  image_use_ = use;
   invalidate_from(Stage::preprocess);
 }
 
@@ -135,8 +136,24 @@ void Pipeline::run_stage(Stage s, const Progress& progress) {
   switch (s) {
     case Stage::preprocess:
       if (!image_) throw InputError("no image loaded");
-      preprocess_ = std::make_unique<PreprocessResult>(
-          cvt::preprocess(*image_, preprocess_options(parameters_), progress));
+      break;
+    case Stage::surface:
+    case Stage::cvt:
+    case Stage::mesh: {
+      const bool freed = s == Stage::mesh ? preprocess_->nearest_opposite.data.empty()
+                                          : preprocess_->lfs_mm.data.empty();
+      if (freed)
+        throw InputError(std::string(stage_name(s)) +
+                         ": this single run has freed its inputs; load the image again");
+      break;
+    }
+    default: break;
+  }
+  switch (s) {
+    case Stage::preprocess:
+      preprocess_ = std::make_unique<PreprocessResult>(cvt::preprocess(
+          image_use_ == ImageUse::once ? std::move(image_) : image_,
+          preprocess_options(parameters_), progress));
       break;
     case Stage::surface:
       surface_ = std::make_unique<SurfaceSamples>(
@@ -171,8 +188,19 @@ void Pipeline::run_stage(Stage s, const Progress& progress) {
   }
   done_[int(s)] = true;
   ++generation_[int(s)];
+  if (image_use_ == ImageUse::once) free_inputs_used_up_by(s);
   record(std::string(stage_name(s)),
          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
+}
+
+void Pipeline::free_inputs_used_up_by(Stage s) {
+  const auto free = [](auto& volume) { volume = std::decay_t<decltype(volume)>(); };
+  switch (s) {
+    case Stage::preprocess: free(preprocess_->medial_axis); break;  // the lfs is made of it
+    case Stage::cvt: free(preprocess_->lfs_mm); break;  // the bricks hold the density
+    case Stage::mesh: free(preprocess_->nearest_opposite); break;  // refinement's last use
+    default: break;
+  }
 }
 
 void Pipeline::evaluate(const Progress& progress) {

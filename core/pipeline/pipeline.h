@@ -48,8 +48,16 @@ struct StageRecord {
 
 class Pipeline {
  public:
-  void set_image(std::shared_ptr<const Image> image);  // makes every stage stale
-  const Image* image() const { return image_.get(); }
+  // What the pipeline keeps. `keep`: the image and every stage's intermediate results (the
+  // viewer re-runs stages and shows the fields). `once`: a single run through the stages,
+  // which frees each input once its last stage has used it — the image after stage 1 has
+  // selected the object, the medial axis after stage 1, the lfs after stage 3, the feature
+  // transform after stage 5 — so the run's peak memory is lower. Re-running a stage after its
+  // input was freed throws InputError.
+  enum class ImageUse { keep, once };
+  // Makes every stage stale.
+  void set_image(std::shared_ptr<const Image> image, ImageUse use = ImageUse::keep);
+  const Image* image() const { return image_.get(); }  // null after a once-run's stage 1
 
   const Parameters& parameters() const { return parameters_; }
   // Validates (InputError naming the key) and marks stale the first stage whose result the
@@ -99,12 +107,14 @@ class Pipeline {
   void run_stage(Stage s, const Progress& progress);
   void evaluate(const Progress& progress);
   void invalidate_from(Stage s);
+  void free_inputs_used_up_by(Stage s);  // in a once-run
   void start_lloyd();
   int run_lloyd(int k, const Progress& progress);        // k < 0: to convergence
   int optimize_passes(int k, const Progress& progress);  // k < 0: to the end
   void record(std::string name, double wall_s);
 
   std::shared_ptr<const Image> image_;
+  ImageUse image_use_ = ImageUse::keep;
   Parameters parameters_;
   bool done_[kStageCount] = {};
   std::uint64_t generation_[kStageCount] = {};

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include <tbb/parallel_for.h>
 
@@ -37,24 +38,22 @@ std::vector<std::int32_t> boundary_voxels(const Mask& object) {
 
 namespace {
 
-// Distance and nearest voxel of the other phase, for both phases, in one pair of volumes: the
-// inner transform (features = background) for object voxels, the outer one for background.
-void distance_to_other_phase(const Mask& object, Volume<float>& distance_mm,
-                             Volume<std::int32_t>& nearest, const Progress& progress) {
-  Mask background(object.grid, 0);
-  for (std::size_t v = 0; v < object.size(); ++v) background.data[v] = !object.data[v];
-  FeatureTransform inner = compute_feature_transform(background, true, progress);
-  background = Mask();
-  distance_mm = std::move(inner.squared_distance_mm2);
-  nearest = std::move(inner.nearest);
-  FeatureTransform outer = compute_feature_transform(object, true, progress);
+// Nearest voxel of the other phase, for both phases, in one volume: the inner transform
+// (features = background) for object voxels, the outer one for background. The distances are
+// not kept: the nearest voxel gives them (distance_to_opposite_mm), and dropping them as soon
+// as each transform ends keeps stage 1's peak two volumes lower.
+Volume<std::int32_t> nearest_of_other_phase(const Mask& object, const Progress& progress) {
+  Volume<std::int32_t> nearest;
+  {
+    Mask background(object.grid, 0);
+    for (std::size_t v = 0; v < object.size(); ++v) background.data[v] = !object.data[v];
+    nearest = std::move(compute_feature_transform(background, true, progress).nearest);
+  }
+  const FeatureTransform outer = compute_feature_transform(object, true, progress);
   tbb::parallel_for(std::size_t(0), object.size(), [&](std::size_t v) {
-    if (!object.data[v]) {
-      distance_mm.data[v] = outer.squared_distance_mm2.data[v];
-      nearest.data[v] = outer.nearest.data[v];
-    }
-    distance_mm.data[v] = std::sqrt(distance_mm.data[v]);
+    if (!object.data[v]) nearest.data[v] = outer.nearest.data[v];
   });
+  return nearest;
 }
 
 class StepTimer {
@@ -76,23 +75,42 @@ class StepTimer {
 
 }  // namespace
 
+double distance_to_opposite_mm(const PreprocessResult& pre, std::size_t v) {
+  const std::int32_t u = pre.nearest_opposite.data[v];
+  if (u < 0) return std::numeric_limits<double>::infinity();
+  const Grid& g = pre.object.grid;
+  const auto a = g.ijk(v), b = g.ijk(std::size_t(u));
+  const double dx = (a[0] - b[0]) * g.spacing.x, dy = (a[1] - b[1]) * g.spacing.y,
+               dz = (a[2] - b[2]) * g.spacing.z;
+  return std::sqrt(dx * dx + dy * dy + dz * dz);
+}
+
 PreprocessResult preprocess(const Image& image, const PreprocessOptions& options,
+                            const Progress& progress) {
+  // Not owned: the caller keeps the image.
+  return preprocess(std::shared_ptr<const Image>(std::shared_ptr<const Image>(), &image), options,
+                    progress);
+}
+
+PreprocessResult preprocess(std::shared_ptr<const Image> image, const PreprocessOptions& options,
                             const Progress& progress) {
   PreprocessResult r;
   {
     StepTimer t(r.steps, progress, "select object");
-    r.object = select_object(image, options.selection);
-    // Stage 1 keeps ~22 bytes per crop voxel (mask, indicator, distance, feature transform,
-    // medial axis, lfs) and needs ~16 more while a feature transform runs.
-    require_memory(r.object.size() * 38, options.max_bytes,
-                   image.source + ": the object's crop (" + std::to_string(r.object.size()) +
+    r.object = select_object(*image, options.selection);
+    // Stage 1 keeps ~15 bytes per crop voxel (mask, indicator, feature transform, medial
+    // axis, lfs) and needs ~8 more while a feature transform runs.
+    require_memory(r.object.size() * 23, options.max_bytes,
+                   image->source + ": the object's crop (" + std::to_string(r.object.size()) +
                        " voxels)");
   }
+  const std::string source = image->source;
+  image.reset();
   {
     StepTimer t(r.steps, progress, "clean up");
     r.cleanup = clean_object(r.object, options.cleanup);
     if (std::find(r.object.data.begin(), r.object.data.end(), 1) == r.object.data.end())
-      throw InputError(image.source + ": nothing is left of " + describe(options.selection) +
+      throw InputError(source + ": nothing is left of " + describe(options.selection) +
                        " after clean-up");
   }
   const Grid& g = r.object.grid;
@@ -103,7 +121,7 @@ PreprocessResult preprocess(const Image& image, const PreprocessOptions& options
   }
   {
     StepTimer t(r.steps, progress, "distance transform");
-    distance_to_other_phase(r.object, r.distance_mm, r.nearest_opposite, progress);
+    r.nearest_opposite = nearest_of_other_phase(r.object, progress);
   }
   {
     StepTimer t(r.steps, progress, "medial axis");

@@ -3,6 +3,7 @@
 #pragma once
 
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -32,8 +33,8 @@ struct StepTime {
 struct PreprocessResult {
   Mask object;                            // cropped + padded binary object (1 inside)
   Volume<float> indicator;                // smoothed object; 0.5 level = sub-voxel boundary
-  Volume<float> distance_mm;              // distance to the nearest voxel of the other phase
-  Volume<std::int32_t> nearest_opposite;  // that voxel's linear index (feature transform)
+  Volume<std::int32_t> nearest_opposite;  // linear index of the nearest voxel of the other
+                                          // phase (feature transform); distance_to_opposite_mm
   Mask medial_axis;                       // 1 inner, 2 outer medial axis
   Volume<float> lfs_mm;                   // clamped local feature size
   std::vector<std::int32_t> boundary;     // F: object voxels with a background 6-neighbour
@@ -50,7 +51,15 @@ double effective_smoothing_sigma_mm(double sigma_mm, const Grid& grid);
 // having one).
 std::vector<std::int32_t> boundary_voxels(const Mask& object);
 
+// Distance from voxel v to the nearest voxel of the other phase (mm), from the feature
+// transform (+inf when the crop holds only one phase).
+double distance_to_opposite_mm(const PreprocessResult& pre, std::size_t v);
+
 PreprocessResult preprocess(const Image& image, const PreprocessOptions& options,
+                            const Progress& progress = {});
+// The same, holding `image` only until the object is selected: when the caller passes the
+// last reference, the image's memory is free for the rest of stage 1.
+PreprocessResult preprocess(std::shared_ptr<const Image> image, const PreprocessOptions& options,
                             const Progress& progress = {});
 
 }  // namespace cvt

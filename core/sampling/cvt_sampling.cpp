@@ -76,7 +76,13 @@ LloydStepper::LloydStepper(const PreprocessResult& pre, const CvtOptions& option
       resolved_(resolve_cvt_options(options, pre.object)),
       seed_(options.seed),
       max_iterations_(options.max_iterations) {
-  pack_bricks(pre.object, compute_density(pre.object, pre.lfs_mm, resolved_.sigma_density_mm));
+  // ρ straight from the lfs, voxel by voxel: no density volume (4 bytes per crop voxel).
+  if (!pre.lfs_mm.grid.same_geometry(pre.object.grid))
+    throw InputError("CVT density: the lfs field and the object have different grids");
+  const double sigma = resolved_.sigma_density_mm;
+  pack_bricks(pre.object, [&](std::size_t v) {
+    return float(density_from_lfs(pre.lfs_mm.data[v], sigma));
+  });
 }
 
 LloydStepper::LloydStepper(const Mask& object, const Volume<float>& density,
@@ -87,7 +93,7 @@ LloydStepper::LloydStepper(const Mask& object, const Volume<float>& density,
       max_iterations_(options.max_iterations) {
   if (!density.grid.same_geometry(object.grid))
     throw InputError("CVT sampling: the density and the object have different grids");
-  pack_bricks(object, density);
+  pack_bricks(object, [&](std::size_t v) { return density.data[v]; });
 }
 
 LloydStepper::~LloydStepper() = default;
@@ -97,7 +103,8 @@ LloydStepper& LloydStepper::operator=(LloydStepper&&) noexcept = default;
 // Bricks of kBrickRow voxels along i, and along j and k as many as make the brick roughly cubic in
 // mm; only bricks holding object voxels are kept, their weights packed brick after brick so the
 // kernel streams through memory.
-void LloydStepper::pack_bricks(const Mask& object, const Volume<float>& density) {
+void LloydStepper::pack_bricks(const Mask& object,
+                               const std::function<float(std::size_t)>& density) {
   const Grid& g = grid_;
   brick_[0] = kBrickRow;
   brick_[1] = std::clamp(int(std::lround(kBrickRow * g.spacing.x / g.spacing.y)), 1, 16);
@@ -121,7 +128,7 @@ void LloydStepper::pack_bricks(const Mask& object, const Volume<float>& density)
               const std::array<int, 3> v{b.origin[0] + ii, b.origin[1] + jj, b.origin[2] + kk};
               slots[s] = -1;
               if (!g.contains(v[0], v[1], v[2]) || !object.at(v[0], v[1], v[2])) continue;
-              const float rho = density.at(v[0], v[1], v[2]);  // NaN, < 0 → 0; > 1 → 1
+              const float rho = density(g.linear(v[0], v[1], v[2]));  // NaN, < 0 → 0; > 1 → 1
               slots[s] =
                   rho > 0 ? std::int32_t(std::lround(std::min(rho, 1.0f) * kWeightScale)) : 0;
               for (int a = 0; a < 3; ++a)
@@ -133,6 +140,11 @@ void LloydStepper::pack_bricks(const Mask& object, const Volume<float>& density)
       }
   });
   brick_at_.assign(std::size_t(nb[0]) * nb[1] * nb[2], -1);
+  // Reserved pages are not resident until written, and each layer is freed once copied: the
+  // weights are never held twice.
+  std::size_t total = 0;
+  for (const auto& w : layer_weights) total += w.size();
+  weight_.reserve(total);
   for (int bk = 0; bk < nb[2]; ++bk) {
     for (const VoxelBrick& b : layer_bricks[bk]) {
       const int bi = b.origin[0] / brick_[0], bj = b.origin[1] / brick_[1];
@@ -140,6 +152,7 @@ void LloydStepper::pack_bricks(const Mask& object, const Volume<float>& density)
       bricks_.push_back(b);
     }
     weight_.insert(weight_.end(), layer_weights[bk].begin(), layer_weights[bk].end());
+    std::vector<std::int32_t>().swap(layer_weights[bk]);
   }
 }
 

@@ -9,6 +9,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <vector>
 
 #include "base/progress.h"
@@ -104,7 +105,8 @@ class LloydStepper {
   std::vector<std::int32_t> owners_of(const std::vector<std::int32_t>& voxels) const;
 
  private:
-  void pack_bricks(const Mask& object, const Volume<float>& density);
+  // density(v): ρ of object voxel v (linear index).
+  void pack_bricks(const Mask& object, const std::function<float(std::size_t)>& density);
   void set_sites(std::vector<Vec3> local);
   bool inside(int i, int j, int k) const;
 
