@@ -198,7 +198,7 @@ TEST(SurfaceDistance, ZeroAgainstItselfAndTheTranslationWhenMoved) {
 }
 
 // A large object at CT spacing (a torus 80 mm across, 0.6 × 0.6 × 1.3 mm voxels), its voxel mesh
-// against its own mask: at the default sample spacing (one smallest voxel spacing), and under a
+// against its own mask: at the default sample spacing (two smallest voxel spacings), and under a
 // sample cap that forces a coarser spacing. The object volume is the torus's, the object
 // surface has its topology, and the Hausdorff bound above holds at both spacings.
 TEST(Fidelity, LargeObjectAtCtSpacingAndUnderASampleCap) {
@@ -212,22 +212,25 @@ TEST(Fidelity, LargeObjectAtCtSpacingAndUnderASampleCap) {
   EXPECT_NEAR(fine.volume_error_percent, 0, 1e-7);  // rounding over many tets
   EXPECT_EQ(fine.object_surface_euler, 0);
   EXPECT_EQ(fine.object_surface_components, 1u);
-  EXPECT_DOUBLE_EQ(fine.distance.sample_spacing_mm, 0.6);
+  EXPECT_DOUBLE_EQ(fine.distance.sample_spacing_mm, 1.2);  // two smallest voxel spacings
   EXPECT_LE(fine.distance.hausdorff_mm, half_voxel_diagonal(ct));
   EXPECT_GT(fine.distance.mean_mm, 0);
   EXPECT_LT(fine.distance.mean_mm, 0.25 * ct.z);
 
-  // Area samples (vertices aside) stay below the cap on both surfaces; the spacing grows to
-  // keep them there, and the figures stay within the same bounds.
-  const std::size_t mesh_vertices = used_vertices(boundary_surface(mesh));
-  const std::size_t object_vertices = used_vertices(marching_cubes(mask));
+  // The samples stay below a cap on both surfaces (as long as a sample per triangle fits); the
+  // spacing grows to keep them there, and the figures stay within the same bounds.
+  const std::size_t triangles = std::max(boundary_surface(mesh).triangles.size(),
+                                         marching_cubes(mask).triangles.size());
   FidelityOptions capped_options;
-  capped_options.max_samples = (fine.distance.samples_b - object_vertices) / 2;
+  capped_options.max_samples = (std::max(fine.distance.samples_a, fine.distance.samples_b) + triangles) / 2;
+  ASSERT_GT(std::max(fine.distance.samples_a, fine.distance.samples_b), capped_options.max_samples);
   const FidelityReport capped = compute_fidelity(mesh, mask, capped_options);
-  EXPECT_GT(capped.distance.sample_spacing_mm, 0.6);
-  EXPECT_LE(capped.distance.samples_a - mesh_vertices, capped_options.max_samples);
-  EXPECT_LE(capped.distance.samples_b - object_vertices, capped_options.max_samples);
+  EXPECT_GT(capped.distance.sample_spacing_mm, 1.2);
+  EXPECT_LE(capped.distance.samples_a, capped_options.max_samples);
+  EXPECT_LE(capped.distance.samples_b, capped_options.max_samples);
   EXPECT_EQ(capped.volume_error_percent, fine.volume_error_percent);
   EXPECT_LE(capped.distance.hausdorff_mm, half_voxel_diagonal(ct));
-  EXPECT_NEAR(capped.distance.mean_mm, fine.distance.mean_mm, 0.1 * fine.distance.mean_mm);
+  // One centroid per triangle on a staircase against its marching-cubes surface (the distance
+  // varies most within a triangle there) moves the mean most: 17 % here, 0.5 % on the liver.
+  EXPECT_NEAR(capped.distance.mean_mm, fine.distance.mean_mm, 0.2 * fine.distance.mean_mm);
 }

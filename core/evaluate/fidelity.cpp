@@ -30,11 +30,6 @@ Kernel::Point_3 to_cgal(const Vec3& p) {
   return {p.x, p.y, p.z};
 }
 
-struct Sample {
-  Vec3 position;
-  double weight;  // area it stands for (mm²); 0 for vertices
-};
-
 // Pieces per edge so that each piece's edges are ≤ h.
 std::size_t subdivisions(const TriangleSurface& s, const Triangle& t, double h) {
   const Vec3 &a = s.vertices[t[0]], &b = s.vertices[t[1]], &c = s.vertices[t[2]];
@@ -43,39 +38,161 @@ std::size_t subdivisions(const TriangleSurface& s, const Triangle& t, double h) 
   return std::max<std::size_t>(1, std::size_t(std::ceil(longest / h)));
 }
 
-// Used vertices, then per triangle the centroids of its k² sub-triangles.
-std::vector<Sample> distance_samples(const TriangleSurface& s, double h, const Progress& progress) {
-  std::vector<char> used(s.vertices.size(), 0);
-  for (const Triangle& t : s.triangles)
-    for (std::int32_t v : t) used[std::size_t(v)] = 1;
-  std::vector<std::size_t> first(s.triangles.size() + 1, 0);
-  for (std::size_t t = 0; t < s.triangles.size(); ++t) {
-    const std::size_t k = subdivisions(s, s.triangles[t], h);
-    first[t + 1] = first[t] + k * k;
+// Distances to the nearest triangle of a surface (CGAL's AABB tree).
+class NearestTriangle {
+ public:
+  explicit NearestTriangle(const TriangleSurface& target) {
+    triangles_.reserve(target.triangles.size());
+    for (const Triangle& t : target.triangles)
+      triangles_.emplace_back(to_cgal(target.vertices[t[0]]), to_cgal(target.vertices[t[1]]),
+                              to_cgal(target.vertices[t[2]]));
+    if (triangles_.empty()) return;
+    tree_.insert(triangles_.begin(), triangles_.end());
+    tree_.build();
+    tree_.accelerate_distance_queries();  // built now, not lazily inside the parallel loops
   }
-  std::vector<Sample> samples;
-  for (std::size_t v = 0; v < s.vertices.size(); ++v)
-    if (used[v]) samples.push_back({s.vertices[v], 0});
-  const std::size_t offset = samples.size();
-  samples.resize(offset + first.back());
-  tbb::parallel_for(std::size_t(0), s.triangles.size(), [&](std::size_t t) {
-    if (t % 1024 == 0) progress.check_cancelled();
-    const Triangle& tri = s.triangles[t];
-    const Vec3 &a = s.vertices[tri[0]], u = s.vertices[tri[1]] - a, w = s.vertices[tri[2]] - a;
-    const std::size_t k = subdivisions(s, tri, h);
-    const double weight = 0.5 * norm(cross(u, w)) / double(k * k), kd = double(k);
-    std::size_t out = offset + first[t];
-    for (std::size_t i = 0; i < k; ++i)
-      for (std::size_t j = 0; i + j < k; ++j) {
-        samples[out++] = {a + u * ((i + 1.0 / 3) / kd) + w * ((j + 1.0 / 3) / kd), weight};
-        if (i + j + 2 <= k)
-          samples[out++] = {a + u * ((i + 2.0 / 3) / kd) + w * ((j + 2.0 / 3) / kd), weight};
-      }
-  });
-  return samples;
+  bool empty() const { return triangles_.empty(); }
+
+  // Distances of points(i), i in [0, n), in parallel; +inf for an empty target.
+  template <class PointAt>
+  std::vector<double> distances(std::size_t n, const PointAt& point, const Progress& progress) const {
+    std::vector<double> d(n, std::numeric_limits<double>::infinity());
+    if (empty()) return d;
+    // A thrown Cancelled cancels the other chunks and reaches the caller (TBB rethrows it).
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, n, 512), [&](const auto& r) {
+      progress.check_cancelled();
+      for (std::size_t i = r.begin(); i != r.end(); ++i)
+        d[i] = std::sqrt(tree_.squared_distance(to_cgal(point(i))));
+    });
+    return d;
+  }
+  double distance(const Vec3& p) const {
+    if (empty()) return std::numeric_limits<double>::infinity();
+    return std::sqrt(tree_.squared_distance(to_cgal(p)));
+  }
+
+ private:
+  std::vector<Triangle3> triangles_;
+  Tree tree_;
+};
+
+// A piece of a triangle and the distance at its centroid.
+struct Piece {
+  Vec3 a, b, c;
+  double d;
+};
+
+Vec3 centroid(const Piece& p) { return (p.a + p.b + p.c) * (1.0 / 3); }
+
+// Farthest a point of the piece can be from its centroid.
+double reach(const Piece& p) {
+  const Vec3 m = centroid(p);
+  return std::sqrt(std::max({squared_distance(m, p.a), squared_distance(m, p.b),
+                             squared_distance(m, p.c)}));
 }
 
-// Number of area samples (vertices aside) at spacing h.
+// The distance to a surface is 1-Lipschitz: no point of a piece is farther than d + reach. A
+// piece that could hold a point more than `tolerance` farther than the largest value known is
+// split in four (its corners sampled too: a distance linear over the piece peaks there), at most
+// kMaxSplits times. Returns the largest distance found and where (depth first: deterministic for
+// each piece).
+constexpr int kMaxSplits = 4;  // pieces down to 1/16 of the sample spacing
+std::pair<double, Vec3> refine_maximum(const Piece& p, double floor, double tolerance,
+                                       const NearestTriangle& target) {
+  std::pair<double, Vec3> best{p.d, centroid(p)};
+  std::vector<std::pair<Piece, int>> stack{{p, 0}};
+  while (!stack.empty()) {
+    const auto [q, depth] = stack.back();
+    stack.pop_back();
+    const double r = reach(q);
+    if (depth == kMaxSplits || r <= tolerance ||
+        q.d + r <= std::max(floor, best.first) + tolerance)
+      continue;
+    for (const Vec3& corner : {q.a, q.b, q.c}) {
+      const double d = target.distance(corner);
+      if (d > best.first) best = {d, corner};
+    }
+    const Vec3 ab = (q.a + q.b) * 0.5, bc = (q.b + q.c) * 0.5, ca = (q.c + q.a) * 0.5;
+    for (Piece child : {Piece{q.a, ab, ca, 0}, Piece{ab, q.b, bc, 0}, Piece{ca, bc, q.c, 0},
+                        Piece{ab, bc, ca, 0}}) {
+      const Vec3 m = centroid(child);
+      child.d = target.distance(m);
+      if (child.d > best.first) best = {child.d, m};
+      stack.push_back({child, depth + 1});
+    }
+  }
+  return best;
+}
+
+// One direction: the distance of every point of `from` to `to`, summarised. Each triangle is cut
+// into k² pieces with edges ≤ h, sampled at their centroids and weighted by their area; the
+// maximum is then refined where the Lipschitz bound allows a larger one.
+struct OneSide {
+  double max = 0, mean = 0, sum = 0, weight = 0;
+  Vec3 max_at;
+  std::size_t samples = 0;
+};
+
+OneSide one_side(const TriangleSurface& from, const NearestTriangle& to, double h,
+                 double tolerance, std::vector<std::pair<double, double>>& all,
+                 const Progress& progress) {
+  OneSide out;
+  std::vector<std::size_t> first(from.triangles.size() + 1, 0);  // pieces before triangle t
+  for (std::size_t t = 0; t < from.triangles.size(); ++t) {
+    const std::size_t k = subdivisions(from, from.triangles[t], h);
+    first[t + 1] = first[t] + k * k;
+  }
+  std::vector<Piece> pieces(first.back());
+  tbb::parallel_for(std::size_t(0), from.triangles.size(), [&](std::size_t t) {
+    const Triangle& tri = from.triangles[t];
+    const std::size_t k = subdivisions(from, tri, h);
+    const Vec3 &a = from.vertices[tri[0]], u = (from.vertices[tri[1]] - a) * (1.0 / double(k)),
+               w = (from.vertices[tri[2]] - a) * (1.0 / double(k));
+    std::size_t out = first[t];
+    for (std::size_t i = 0; i < k; ++i)
+      for (std::size_t j = 0; i + j < k; ++j) {
+        const Vec3 p = a + u * double(i) + w * double(j);
+        pieces[out++] = {p, p + u, p + w, 0};
+        if (i + j + 2 <= k) pieces[out++] = {p + u, p + u + w, p + w, 0};
+      }
+  });
+  const std::vector<double> d =
+      to.distances(pieces.size(), [&](std::size_t i) { return centroid(pieces[i]); }, progress);
+  progress.check_cancelled();
+  out.samples = pieces.size();
+  all.reserve(all.size() + pieces.size());
+  for (std::size_t i = 0; i < pieces.size(); ++i) {
+    Piece& p = pieces[i];
+    p.d = d[i];
+    const double w = 0.5 * norm(cross(p.b - p.a, p.c - p.a));
+    if (p.d > out.max) out.max = p.d, out.max_at = centroid(p);
+    out.sum += w * p.d, out.weight += w;
+    all.emplace_back(p.d, w);
+  }
+  out.mean = out.weight > 0 ? out.sum / out.weight : 0;
+
+  // The maximum is refined around the largest samples: the kRefined pieces with the largest
+  // bound, as long as that bound exceeds the largest sample.
+  constexpr std::size_t kRefined = 256;
+  const double floor = out.max;
+  std::vector<std::pair<double, std::size_t>> bound;  // (−bound, piece): largest first
+  for (std::size_t i = 0; i < pieces.size(); ++i) {
+    const double b = pieces[i].d + reach(pieces[i]);
+    if (b > floor + tolerance) bound.emplace_back(-b, i);
+  }
+  const std::size_t n = std::min(bound.size(), kRefined);
+  std::partial_sort(bound.begin(), bound.begin() + std::ptrdiff_t(n), bound.end());
+  std::vector<std::pair<double, Vec3>> found(n);
+  tbb::parallel_for(std::size_t(0), n, [&](std::size_t i) {
+    if (i % 16 == 0) progress.check_cancelled();
+    found[i] = refine_maximum(pieces[bound[i].second], floor, tolerance, to);
+  });
+  for (const auto& [dist, at] : found)  // in bound order: the first of equal maxima wins
+    if (dist > out.max) out.max = dist, out.max_at = at;
+  return out;
+}
+
+// Number of area samples at spacing h.
 std::size_t area_sample_count(const TriangleSurface& s, double h) {
   std::size_t n = 0;
   for (const Triangle& t : s.triangles) {
@@ -83,33 +200,6 @@ std::size_t area_sample_count(const TriangleSurface& s, double h) {
     n += k * k;
   }
   return n;
-}
-
-// Distance of each sample to the nearest triangle of `target`.
-std::vector<double> distances(const std::vector<Sample>& samples, const TriangleSurface& target,
-                              const Progress& progress) {
-  std::vector<Triangle3> triangles;
-  triangles.reserve(target.triangles.size());
-  for (const Triangle& t : target.triangles)
-    triangles.emplace_back(to_cgal(target.vertices[t[0]]), to_cgal(target.vertices[t[1]]),
-                           to_cgal(target.vertices[t[2]]));
-  std::vector<double> d(samples.size(), 0);
-  if (triangles.empty()) {
-    std::fill(d.begin(), d.end(), std::numeric_limits<double>::infinity());
-    return d;
-  }
-  Tree tree(triangles.begin(), triangles.end());
-  tree.build();
-  tree.accelerate_distance_queries();  // built now, not lazily inside the parallel loop
-  progress.check_cancelled();
-  // A thrown Cancelled cancels the other chunks and reaches the caller (TBB rethrows it).
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, samples.size(), 1024), [&](const auto& r) {
-    for (std::size_t i = r.begin(); i != r.end(); ++i) {
-      if ((i - r.begin()) % 1024 == 0) progress.check_cancelled();
-      d[i] = std::sqrt(tree.squared_distance(to_cgal(samples[i].position)));
-    }
-  });
-  return d;
 }
 
 double diagonal(const TriangleSurface& s) {
@@ -135,37 +225,30 @@ SurfaceDistance surface_distance(const TriangleSurface& a, const TriangleSurface
     h *= std::max(1.05, std::sqrt(double(n) / double(options.max_samples)));
   }
   out.sample_spacing_mm = h;
-  // (distance, weight) over both directions, for the mean and the percentile. One direction
-  // at a time, so its samples and distances are freed before the other's are made.
+  const double tolerance = options.max_error_mm > 0 ? options.max_error_mm : 0.02 * h;
+  // (distance, weight) over both directions, for the mean and the percentile.
   std::vector<std::pair<double, double>> all;
-  auto one_side = [&](const TriangleSurface& from, const TriangleSurface& to,
-                      std::size_t& count, double& max, Vec3& max_at, double& mean) {
-    const std::vector<Sample> s = distance_samples(from, h, progress);
-    const std::vector<double> d = distances(s, to, progress);
-    progress.check_cancelled();
-    count = s.size();
-    all.reserve(all.size() + s.size());
-    double sum = 0, weight = 0;
-    for (std::size_t i = 0; i < s.size(); ++i) {
-      if (d[i] > max) max = d[i], max_at = s[i].position;
-      sum += s[i].weight * d[i], weight += s[i].weight;
-      if (s[i].weight > 0) all.emplace_back(d[i], s[i].weight);
-    }
-    mean = weight > 0 ? sum / weight : 0;
-    return std::pair{sum, weight};
-  };
-  const auto [sum_a, w_a] = one_side(a, b, out.samples_a, out.a_to_b_max_mm, out.a_to_b_max_at,
-                                     out.a_to_b_mean_mm);
-  const auto [sum_b, w_b] = one_side(b, a, out.samples_b, out.b_to_a_max_mm, out.b_to_a_max_at,
-                                     out.b_to_a_mean_mm);
+  OneSide ab, ba;
+  {
+    const NearestTriangle to_b(b);
+    ab = one_side(a, to_b, h, tolerance, all, progress);
+  }
+  {
+    const NearestTriangle to_a(a);
+    ba = one_side(b, to_a, h, tolerance, all, progress);
+  }
+  out.samples_a = ab.samples, out.samples_b = ba.samples;
+  out.a_to_b_max_mm = ab.max, out.a_to_b_max_at = ab.max_at, out.a_to_b_mean_mm = ab.mean;
+  out.b_to_a_max_mm = ba.max, out.b_to_a_max_at = ba.max_at, out.b_to_a_mean_mm = ba.mean;
   out.hausdorff_mm = std::max(out.a_to_b_max_mm, out.b_to_a_max_mm);
-  out.mean_mm = w_a + w_b > 0 ? (sum_a + sum_b) / (w_a + w_b) : 0;
+  const double weight = ab.weight + ba.weight;
+  out.mean_mm = weight > 0 ? (ab.sum + ba.sum) / weight : 0;
   tbb::parallel_sort(all.begin(), all.end());
   double cumulative = 0;
   for (const auto& [d, w] : all) {
     cumulative += w;
     out.p95_mm = d;
-    if (cumulative >= 0.95 * (w_a + w_b)) break;
+    if (cumulative >= 0.95 * weight) break;
   }
   return out;
 }

@@ -15,11 +15,14 @@
 
 namespace cvt {
 
-// Symmetric distance between two surfaces A and B, estimated from samples: every vertex plus the
-// centroids of a regular subdivision of each triangle into pieces with edges ≤ the sample spacing
-// (deterministic, area-uniform). Each sample's distance is the exact distance to the nearest
-// triangle of the other surface. Means and the percentile weight samples by the area they stand
-// for (vertices only enter the maxima).
+// Symmetric distance between two surfaces A and B. Every vertex is a sample; a triangle with
+// edges ≤ the sample spacing h stands for its area through its vertices (a third each), a larger
+// one is cut into k² pieces with edges ≤ h, sampled at their centroids (deterministic,
+// area-uniform). Each sample's distance is the exact distance to the nearest triangle of the
+// other surface. Means and the percentile weight samples by the area they stand for. The maxima
+// are refined around the largest samples: the distance is 1-Lipschitz, so a piece whose sample
+// allows a value larger than the largest sample is split further (its corners sampled too), to
+// max_error_mm or 1/16 of the spacing.
 struct SurfaceDistance {
   double hausdorff_mm = 0;  // max(a_to_b_max_mm, b_to_a_max_mm)
   double mean_mm = 0;       // area-weighted mean over both directions (ASSD)
@@ -34,6 +37,7 @@ struct SurfaceDistance {
 struct SurfaceDistanceOptions {
   double sample_spacing_mm = 0;       // ≤ 0: 1/200 of the larger bounding-box diagonal
   std::size_t max_samples = 4000000;  // area samples per surface; the spacing grows to stay below
+  double max_error_mm = 0;            // of the maxima; ≤ 0: 2 % of the sample spacing
 };
 
 // Checks progress for a cancel between steps and every thousand or so samples (throws Cancelled).
@@ -48,7 +52,9 @@ SurfaceDistance surface_distance(const TetMesh& a, const TetMesh& b,
 TriangleSurface boundary_surface(const TetMesh& mesh);
 
 struct FidelityOptions {
-  double sample_spacing_voxels = 1.0;  // sample spacing as a fraction of the smallest voxel spacing
+  // Sample spacing in smallest voxel spacings: two keep the liver's mean and 95th percentile
+  // within 0.005 mm of a spacing of half a voxel, at a sixth of the samples.
+  double sample_spacing_voxels = 2.0;
   std::size_t max_samples = 4000000;   // area samples per surface (see SurfaceDistanceOptions)
 };
 
