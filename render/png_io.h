@@ -1,4 +1,4 @@
-// Screenshots to disk: RGBA pixels to a PNG through OpenImageIO, written beside the target and
+// Screenshots to disk: RGBA pixels to a PNG through libpng, written beside the target and
 // renamed, so a failed write never leaves half a file. GL-free.
 #pragma once
 

@@ -2,7 +2,7 @@
 #   test_render_logic, test_render_data, test_gui_logic
 #                                      GL-free logic of render/ and app/gui/, no window
 #   test_gui_*                         cvtmesh-gui scripted under xvfb-run (Mesa llvmpipe), its
-#                                      PNGs checked by check_screenshot (OpenImageIO); inputs
+#                                      PNGs checked by check_screenshot (libpng); inputs
 #                                      sent as GLFW drop and key events (--drop, --press)
 if(NOT CVTMESH_BUILD_GUI)
   return()
@@ -19,7 +19,7 @@ target_compile_definitions(test_gui_logic PRIVATE CVTMESH_CLI="$<TARGET_FILE:cvt
 add_dependencies(test_gui_logic cvtmesh)
 
 add_executable(check_screenshot check_screenshot.cpp)
-target_link_libraries(check_screenshot PRIVATE PkgConfig::OIIO)
+target_link_libraries(check_screenshot PRIVATE PNG::PNG)
 
 find_program(XVFB_RUN xvfb-run)
 if(NOT XVFB_RUN)

@@ -1,6 +1,5 @@
 // Image IO: geometry and value round trips per format, slice folders, DICOM, the real liver,
 // and one-line InputErrors for bad input.
-#include <OpenImageIO/imageio.h>
 #include <gtest/gtest.h>
 #include <itkGDCMImageIO.h>
 #include <itkImage.h>
@@ -9,9 +8,13 @@
 #include <itkMetaDataObject.h>
 #include <itkNiftiImageIO.h>
 #include <itkVector.h>
+#include <png.h>
+#include <tiffio.h>
 #include <unistd.h>
 
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -103,14 +106,72 @@ void write_bytes(const std::string& path, const std::string& bytes) {
   std::ofstream(path, std::ios::binary) << bytes;
 }
 
-template <class T>
-void write_slice(const std::string& file, int w, int h, OIIO::TypeDesc type,
-                 const std::vector<T>& pixels) {
-  auto out = OIIO::ImageOutput::create(file);
-  ASSERT_TRUE(out) << OIIO::geterror();
-  ASSERT_TRUE(out->open(file, OIIO::ImageSpec(w, h, 1, type)));
-  ASSERT_TRUE(out->write_image(type, pixels.data()));
-  out->close();
+// A single-channel slice of `values` (row by row) as a TIFF through libtiff: `bits` per sample
+// of `format` (SAMPLEFORMAT_UINT, _INT, _IEEEFP for 16/32/64 bits); depths other than
+// 8/16/32/64 bits packed most significant bit first, as TIFF stores them.
+void write_tiff_slice(const std::string& file, int w, int h, int bits, int format,
+                      const std::vector<double>& values, int samples = 1,
+                      int photometric = PHOTOMETRIC_MINISBLACK) {
+  TIFF* tiff = TIFFOpen(file.c_str(), "w");
+  ASSERT_TRUE(tiff) << file;
+  TIFFSetField(tiff, TIFFTAG_IMAGEWIDTH, w);
+  TIFFSetField(tiff, TIFFTAG_IMAGELENGTH, h);
+  TIFFSetField(tiff, TIFFTAG_BITSPERSAMPLE, bits);
+  TIFFSetField(tiff, TIFFTAG_SAMPLESPERPIXEL, samples);
+  TIFFSetField(tiff, TIFFTAG_SAMPLEFORMAT, format);
+  TIFFSetField(tiff, TIFFTAG_PHOTOMETRIC, photometric);
+  TIFFSetField(tiff, TIFFTAG_PLANARCONFIG, PLANARCONFIG_CONTIG);
+  TIFFSetField(tiff, TIFFTAG_COMPRESSION, COMPRESSION_ADOBE_DEFLATE);
+  TIFFSetField(tiff, TIFFTAG_ROWSPERSTRIP, 2);  // several strips, the last one short
+  const int n = w * samples;
+  std::vector<unsigned char> row((std::size_t(n) * bits + 7) / 8);
+  for (int j = 0; j < h; ++j) {
+    std::fill(row.begin(), row.end(), 0);
+    for (int i = 0; i < n; ++i) {
+      const double v = values[std::size_t(j) * n + i];
+      unsigned char* at = row.data() + std::size_t(i) * bits / 8;
+      if (format == SAMPLEFORMAT_IEEEFP && bits == 16) {  // half: v is exact, normal or 0
+        const std::uint32_t f = std::bit_cast<std::uint32_t>(float(v));
+        const std::uint16_t half =
+            v == 0 ? 0
+                   : std::uint16_t(((f >> 16) & 0x8000) | ((((f >> 23) & 0xff) - 112) << 10) |
+                                   ((f >> 13) & 0x3ff));
+        std::memcpy(at, &half, 2);
+      } else if (format == SAMPLEFORMAT_IEEEFP && bits == 32) {
+        const float f = float(v);
+        std::memcpy(at, &f, 4);
+      } else if (format == SAMPLEFORMAT_IEEEFP) {
+        std::memcpy(at, &v, 8);
+      } else if (bits == 8 || bits == 16 || bits == 32 || bits == 64) {
+        const std::int64_t x = std::int64_t(v);  // two's complement: the low bytes
+        std::memcpy(at, &x, std::size_t(bits / 8));
+      } else {
+        const std::uint64_t x = std::uint64_t(v);
+        for (int b = 0; b < bits; ++b) {
+          const std::size_t bit = std::size_t(i) * bits + b;
+          if (x >> (bits - 1 - b) & 1) row[bit / 8] |= std::uint8_t(0x80 >> bit % 8);
+        }
+      }
+    }
+    ASSERT_EQ(TIFFWriteScanline(tiff, row.data(), std::uint32_t(j), 0), 1);
+  }
+  TIFFClose(tiff);
+}
+
+// A grey PNG slice of 8 or 16 bits through libpng (values stored as they are).
+void write_png_slice(const std::string& file, int w, int h, int bits,
+                     const std::vector<double>& values) {
+  png_image image{};
+  image.version = PNG_IMAGE_VERSION;
+  image.width = png_uint_32(w);
+  image.height = png_uint_32(h);
+  // 16-bit "linear" grey is written unchanged (and tagged gamma 1).
+  image.format = bits == 16 ? PNG_FORMAT_LINEAR_Y : PNG_FORMAT_GRAY;
+  std::vector<std::uint16_t> wide(values.begin(), values.end());
+  std::vector<std::uint8_t> narrow(values.begin(), values.end());
+  const void* data = bits == 16 ? static_cast<const void*>(wide.data()) : narrow.data();
+  ASSERT_TRUE(png_image_write_to_file(&image, file.c_str(), 0, data, 0, nullptr))
+      << file << ": " << image.message;
 }
 
 }  // namespace
@@ -173,44 +234,112 @@ TEST(ImageIO, SliceFolders) {
   const int w = 9, h = 7, n = 11;
   auto value = [](int i, int j, int k) { return (i + 3 * j + 17 * k) % 200; };
   struct Case {
-    std::string name, ext, type;
-    OIIO::TypeDesc desc;
+    std::string name, ext, type;  // the folder, the files' extension, the pixel type read
+    int bits, format;             // the stored samples (format: TIFF only)
+    std::function<double(int)> stored, read;  // value(i, j, k) → stored value, value read
   };
-  for (const Case& c : {Case{"png8", "png", "uint8", OIIO::TypeDesc::UINT8},
-                        Case{"png16", "png", "uint16", OIIO::TypeDesc::UINT16},
-                        Case{"tif16", "tif", "uint16", OIIO::TypeDesc::UINT16},
-                        Case{"tiffloat", "tiff", "float32", OIIO::TypeDesc::FLOAT}}) {
+  auto same = [](int v) { return double(v); };
+  // Depths other than 8/16/32 bits are scaled to the next one's range: 12-bit x → x·65535/4095.
+  auto widen12 = [](int v) { return double(v * 20 * 65535 / 4095); };
+  const int u = SAMPLEFORMAT_UINT, s = SAMPLEFORMAT_INT, f = SAMPLEFORMAT_IEEEFP;
+  const std::vector<Case> cases = {
+      {"png8", "png", "uint8", 8, u, same, same},
+      {"png16", "png", "uint16", 16, u, [](int v) { return v * 300.0; },
+       [](int v) { return v * 300.0; }},
+      {"tif8", "tif", "uint8", 8, u, same, same},
+      {"tifint8", "tif", "int8", 8, s, [](int v) { return v - 100.0; },
+       [](int v) { return v - 100.0; }},
+      {"tif16", "tif", "uint16", 16, u, [](int v) { return v * 300.0; },
+       [](int v) { return v * 300.0; }},
+      {"tifint16", "tif", "int16", 16, s, [](int v) { return (v - 100) * 300.0; },
+       [](int v) { return (v - 100) * 300.0; }},
+      // 32-bit labels below 2^24 (beyond it a float cannot hold them).
+      {"tif32", "tif", "uint32", 32, u, [](int v) { return v * 70000.0; },
+       [](int v) { return v * 70000.0; }},
+      {"tifint32", "tif", "int32", 32, s, [](int v) { return (v - 100) * 70000.0; },
+       [](int v) { return (v - 100) * 70000.0; }},
+      {"tifhalf", "tif", "float16", 16, f, [](int v) { return v * 0.5 - 20; },
+       [](int v) { return v * 0.5 - 20; }},
+      {"tiffloat", "tiff", "float32", 32, f, [](int v) { return v * 0.25 - 20; },
+       [](int v) { return v * 0.25 - 20; }},
+      {"tifdouble", "tif", "float64", 64, f, [](int v) { return v * 0.125 - 20; },
+       [](int v) { return v * 0.125 - 20; }},
+      {"tif12", "tif", "uint16", 12, u, [](int v) { return v * 20.0; }, widen12},
+  };
+  for (const Case& c : cases) {
     SCOPED_TRACE(c.name);
     const fs::path folder = dir.path / c.name;
     fs::create_directory(folder);
     // Unpadded numbers: s2 must come before s10.
     for (int k = 0; k < n; ++k) {
-      std::vector<float> px(w * h);
+      std::vector<double> px(w * h);
       for (int j = 0; j < h; ++j)
-        for (int i = 0; i < w; ++i)
-          px[j * w + i] = float(value(i, j, k) * (c.type == "uint16" ? 300 : 1));
+        for (int i = 0; i < w; ++i) px[j * w + i] = c.stored(value(i, j, k));
       const std::string file = (folder / ("s" + std::to_string(k + 1) + "." + c.ext)).string();
-      // OIIO converts float → integer types by normalised scaling; give it the stored type.
-      if (c.type == "uint8")
-        write_slice(file, w, h, c.desc, std::vector<std::uint8_t>(px.begin(), px.end()));
-      else if (c.type == "uint16")
-        write_slice(file, w, h, c.desc, std::vector<std::uint16_t>(px.begin(), px.end()));
+      if (c.ext == "png")
+        write_png_slice(file, w, h, c.bits, px);
       else
-        write_slice(file, w, h, c.desc, px);
+        write_tiff_slice(file, w, h, c.bits, c.format, px);
     }
     write_bytes((folder / "notes.txt").string(), "ignored");
     cvt::ReadOptions options;
     options.slice_spacing_mm = {0.5, 0.6, 2.5};
     const Image im = cvt::read_image(folder.string(), options);
     EXPECT_EQ(im.grid().dims, (std::array<int, 3>{w, h, n}));
+    EXPECT_EQ(im.grid().spacing.x, 0.5);
+    EXPECT_EQ(im.grid().spacing.y, 0.6);
     EXPECT_EQ(im.grid().spacing.z, 2.5);
     EXPECT_EQ(im.pixel_type, c.type);
-    EXPECT_EQ(im.integer_valued, c.type != "float32");
+    EXPECT_EQ(im.integer_valued, c.type.rfind("float", 0) != 0);
+    EXPECT_EQ(im.source, folder.string());
     for (int k = 0; k < n; ++k)
       for (int j = 0; j < h; ++j)
         for (int i = 0; i < w; ++i)
-          ASSERT_EQ(im.voxels.at(i, j, k), float(value(i, j, k) * (c.type == "uint16" ? 300 : 1)));
+          ASSERT_EQ(im.voxels.at(i, j, k), float(c.read(value(i, j, k))))
+              << i << " " << j << " " << k;
   }
+}
+
+// Slices that cannot make a volume: one-line InputErrors naming the file at fault.
+TEST(ImageIO, BadSliceFolders) {
+  TempDir dir;
+  const std::vector<double> grey(6 * 4, 7.0);
+  auto folder = [&](const std::string& name) {
+    fs::create_directory(dir.path / name);
+    write_tiff_slice(dir / (name + "/a1.tif"), 6, 4, 16, SAMPLEFORMAT_UINT, grey);
+    return dir / name;
+  };
+  auto read = [](const std::string& p) { return [p] { cvt::read_image(p); }; };
+
+  const std::string size = folder("size");
+  write_tiff_slice(size + "/a2.tif", 5, 4, 16, SAMPLEFORMAT_UINT, grey);
+  expect_input_error(read(size), size + "/a2.tif",
+                     "is 5x4 uint16 with 1 channel(s), unlike a1.tif");
+  const std::string type = folder("type");
+  write_png_slice(type + "/a2.png", 6, 4, 8, grey);
+  expect_input_error(read(type), type + "/a2.png", "is 6x4 uint8");
+  const std::string colour = folder("colour");
+  write_tiff_slice(colour + "/a0.tif", 6, 4, 8, SAMPLEFORMAT_UINT,
+                   std::vector<double>(6 * 4 * 3, 9.0), 3, PHOTOMETRIC_RGB);
+  expect_input_error(read(colour), colour + "/a0.tif", "has 3 channels");
+  const std::string wide = folder("wide");
+  write_tiff_slice(wide + "/a0.tif", 6, 4, 64, SAMPLEFORMAT_INT, grey);
+  expect_input_error(read(wide), wide + "/a0.tif", "unsupported pixel type int64");
+  const std::string text = folder("text");
+  write_bytes(text + "/a2.png", "not an image");
+  expect_input_error(read(text), text + "/a2.png", "cannot read image");
+  const std::string cut = folder("cut");
+  std::vector<double> noise(64 * 64);
+  for (std::size_t i = 0; i < noise.size(); ++i) noise[i] = double(i * 7919 % 65536);
+  write_png_slice(cut + "/a0.png", 64, 64, 16, noise);
+  write_png_slice(cut + "/a1.png", 64, 64, 16, noise);
+  fs::remove(cut + "/a1.tif");
+  truncate_file(cut + "/a1.png", 0.5);
+  expect_input_error(read(cut), cut + "/a1.png", "cannot read pixels");
+  const std::string cut_tiff = folder("cut_tiff");
+  write_tiff_slice(cut_tiff + "/a2.tif", 6, 4, 16, SAMPLEFORMAT_UINT, grey);
+  truncate_file(cut_tiff + "/a2.tif", 0.3);
+  expect_input_error(read(cut_tiff), cut_tiff + "/a2.tif");
 }
 
 TEST(ImageIO, DicomSeries) {
@@ -345,7 +474,7 @@ TEST(ImageIO, BadInputs) {
   expect_input_error(read(dir / "huge.inr"), dir / "huge.inr", "MB");
 
   // 2D, 4D and vector images.
-  write_slice(dir / "slice.png", 4, 4, OIIO::TypeDesc::UINT8, std::vector<std::uint8_t>(16, 7));
+  write_png_slice(dir / "slice.png", 4, 4, 8, std::vector<double>(16, 7));
   expect_input_error(read(dir / "slice.png"), dir / "slice.png", "is 2D");
   auto write_nii = [](auto itk_image, const std::string& path) {
     using ImageT = typename decltype(itk_image)::ObjectType;

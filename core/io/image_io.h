@@ -2,7 +2,7 @@
 //   .nii .nii.gz .nrrd .nhdr .mha .mhd       → ITK
 //   a folder holding DICOM files              → ITK (GDCM), the first series found
 //   .inr .inr.gz                              → CGAL ImageIO (origin 0, identity direction)
-//   a folder of .tif/.tiff/.png slices        → OpenImageIO, slices sorted by name
+//   a folder of .tif/.tiff/.png slices        → libtiff/libpng, slices sorted by name
 // Every failure throws InputError with one line naming the path and the problem.
 #pragma once
 
