@@ -1,5 +1,7 @@
 #include "base/tet_mesh.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <stdexcept>
 #include <string>
@@ -40,9 +42,10 @@ std::vector<std::int64_t> face_neighbours(std::size_t num_vertices, const std::v
     }
   }
 
-  // Faces with the same key in a bucket are the same triangle.
+  // Faces with the same key in a bucket are the same triangle. Buckets are independent, so
+  // they are sorted in parallel (each one exactly as a serial pass would).
   std::vector<std::int64_t> neighbour(num_faces, -1);
-  for (std::size_t v = 0; v < num_vertices; ++v) {
+  tbb::parallel_for(std::size_t(0), num_vertices, [&](std::size_t v) {
     const auto first = entries.begin() + bucket_start[v],
                last = entries.begin() + bucket_start[v + 1];
     std::sort(first, last, [](const Entry& a, const Entry& b) { return a.key < b.key; });
@@ -53,7 +56,7 @@ std::vector<std::int64_t> face_neighbours(std::size_t num_vertices, const std::v
         for (auto f = run; f != end; ++f) neighbour[f->face] = (f + 1 == end ? run : f + 1)->face;
       run = end;
     }
-  }
+  });
   return neighbour;
 }
 

@@ -2,9 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
 
+#include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_reduce.h>
 
 #include "base/errors.h"
 
@@ -62,21 +65,42 @@ Mask select_object(const Image& image, const ObjectSelection& selection) {
     throw InputError(name + ": is a grey (" + image.pixel_type +
                      ") image; choose the object with an iso value (--iso V)");
   const auto& v = image.voxels.data;
-  for (float x : v)
-    if (!std::isfinite(x)) throw InputError(name + ": holds NaN or infinite values");
-
-  // Bounding box of the selected voxels.
-  InsideTest inside{selection};
-  std::array<int, 3> lo{g.dims[0], g.dims[1], g.dims[2]}, hi{-1, -1, -1};
-  for (int k = 0; k < g.dims[2]; ++k)
-    for (int j = 0; j < g.dims[1]; ++j) {
-      const float* row = &v[g.linear(0, j, k)];
-      for (int i = 0; i < g.dims[0]; ++i)
-        if (inside(row[i])) {
-          lo = {std::min(lo[0], i), std::min(lo[1], j), std::min(lo[2], k)};
-          hi = {std::max(hi[0], i), std::max(hi[1], j), std::max(hi[2], k)};
-        }
+  // One parallel pass over the image: whether it holds a non-finite value, and the bounding box
+  // of the selected voxels (each k-slab's own, merged; min and max do not depend on order).
+  struct Scan {
+    bool finite = true;
+    std::array<int, 3> lo{std::numeric_limits<int>::max(), std::numeric_limits<int>::max(),
+                          std::numeric_limits<int>::max()};
+    std::array<int, 3> hi{-1, -1, -1};
+    void merge(const Scan& o) {
+      finite = finite && o.finite;
+      for (int a = 0; a < 3; ++a) lo[a] = std::min(lo[a], o.lo[a]), hi[a] = std::max(hi[a], o.hi[a]);
     }
+  };
+  InsideTest inside{selection};
+  const Scan scan = tbb::parallel_reduce(
+      tbb::blocked_range<int>(0, g.dims[2]), Scan{},
+      [&](const tbb::blocked_range<int>& r, Scan acc) {
+        for (int k = r.begin(); k != r.end(); ++k)
+          for (int j = 0; j < g.dims[1]; ++j) {
+            const float* row = &v[g.linear(0, j, k)];
+            for (int i = 0; i < g.dims[0]; ++i) {
+              if (!std::isfinite(row[i])) acc.finite = false;
+              if (inside(row[i])) {
+                acc.lo = {std::min(acc.lo[0], i), std::min(acc.lo[1], j), std::min(acc.lo[2], k)};
+                acc.hi = {std::max(acc.hi[0], i), std::max(acc.hi[1], j), std::max(acc.hi[2], k)};
+              }
+            }
+          }
+        return acc;
+      },
+      [](Scan a, const Scan& b) {
+        a.merge(b);
+        return a;
+      });
+  if (!scan.finite) throw InputError(name + ": holds NaN or infinite values");
+  const std::array<int, 3>& lo = scan.lo;
+  const std::array<int, 3>& hi = scan.hi;
   if (hi[0] < 0) throw InputError(name + ": no voxel matches " + describe(selection));
 
   const int m = std::max(1, selection.margin_voxels);  // ≥ 1 so the object is always closed

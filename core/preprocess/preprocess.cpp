@@ -21,8 +21,10 @@ double effective_smoothing_sigma_mm(double sigma_mm, const Grid& grid) {
 
 std::vector<std::int32_t> boundary_voxels(const Mask& object) {
   const Grid& g = object.grid;
-  std::vector<std::int32_t> out;
-  for (int k = 0; k < g.dims[2]; ++k)
+  // Each k-slice's voxels in scan order, concatenated: the same list as one serial scan.
+  std::vector<std::vector<std::int32_t>> slices(std::size_t(g.dims[2]));
+  tbb::parallel_for(0, g.dims[2], [&](int k) {
+    std::vector<std::int32_t>& out = slices[std::size_t(k)];
     for (int j = 0; j < g.dims[1]; ++j)
       for (int i = 0; i < g.dims[0]; ++i) {
         if (!object.at(i, j, k)) continue;
@@ -33,6 +35,9 @@ std::vector<std::int32_t> boundary_voxels(const Mask& object) {
             !object.at(i, j, k + 1))
           out.push_back(std::int32_t(g.linear(i, j, k)));
       }
+  });
+  std::vector<std::int32_t> out;
+  for (const auto& slice : slices) out.insert(out.end(), slice.begin(), slice.end());
   return out;
 }
 

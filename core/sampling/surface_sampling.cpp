@@ -1,5 +1,7 @@
 #include "sampling/surface_sampling.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 #include <queue>
@@ -99,17 +101,21 @@ SurfaceSamples sample_surface(const PreprocessResult& pre, const SurfaceSampling
       progress("surface sampling", 1.0 - double(remaining) / double(n));
   }
 
-  out.voxel_world.reserve(out.voxels.size());
-  out.world.reserve(out.voxels.size());
-  for (std::int32_t v : out.voxels) {
-    const auto c = grid.ijk(std::size_t(v));
+  // Projections are independent: in parallel, each into its own slot.
+  const std::size_t m = out.voxels.size();
+  out.voxel_world.resize(m);
+  out.world.resize(m);
+  std::vector<char> failed(m, 0);
+  tbb::parallel_for(std::size_t(0), m, [&](std::size_t s) {
+    const auto c = grid.ijk(std::size_t(out.voxels[s]));
     Vec3 index{double(c[0]), double(c[1]), double(c[2])};
-    out.voxel_world.push_back(grid.index_to_world(index));
+    out.voxel_world[s] = grid.index_to_world(index);
     if (options.project_to_surface &&
         !project_to_level_set(pre.indicator, 0.5f, index, options.max_projection_voxels))
-      ++out.projection_failures;
-    out.world.push_back(grid.index_to_world(index));
-  }
+      failed[s] = 1;
+    out.world[s] = grid.index_to_world(index);
+  });
+  out.projection_failures = std::size_t(std::count(failed.begin(), failed.end(), 1));
   return out;
 }
 
