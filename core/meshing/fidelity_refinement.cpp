@@ -105,14 +105,33 @@ void voxelize_tet(const TetMesh& mesh, const Tet& t, Mask& inside) {
     from[a] = std::max(0, int(std::ceil(lo[a] - eps)));
     to[a] = std::min(grid.dims[a] - 1, int(std::floor(hi[a] + eps)));
   }
+  // Along a row the barycentric coordinates are linear in i, so each of the four conditions
+  // bounds i on one side: the row's voxels are tested only within those bounds widened by one
+  // (far beyond rounding), with the same test as every other voxel. A coefficient too small to
+  // bound i safely leaves that side to the test.
+  const double slope[4] = {r1.x, r2.x, r3.x, r1.x + r2.x + r3.x};
   for (int k = from[2]; k <= to[2]; ++k)
-    for (int j = from[1]; j <= to[1]; ++j)
-      for (int i = from[0]; i <= to[0]; ++i) {
+    for (int j = from[1]; j <= to[1]; ++j) {
+      const Vec3 q = Vec3{0.0, double(j), double(k)} - c[0];
+      const double at0[4] = {dot(r1, q), dot(r2, q), dot(r3, q), 0};
+      double lo_i = from[0], hi_i = to[0];
+      for (int m = 0; m < 4; ++m) {
+        const double b0 = m < 3 ? at0[m] : at0[0] + at0[1] + at0[2];
+        const double limit = m < 3 ? -eps : 1 + eps;  // b ≥ limit (m < 3), b ≤ limit (m = 3)
+        const double a = slope[m];
+        if (std::abs(a) < 1e-6) continue;
+        const double x = (limit - b0) / a;  // where b crosses its limit
+        const bool lower = (m < 3) == (a > 0);
+        if (lower) lo_i = std::max(lo_i, std::ceil(x) - 1);
+        else hi_i = std::min(hi_i, std::floor(x) + 1);
+      }
+      for (int i = int(lo_i); i <= int(hi_i); ++i) {
         const Vec3 p = Vec3{double(i), double(j), double(k)} - c[0];
         const double b1 = dot(r1, p), b2 = dot(r2, p), b3 = dot(r3, p);
         if (b1 >= -eps && b2 >= -eps && b3 >= -eps && b1 + b2 + b3 <= 1 + eps)
           std::atomic_ref<unsigned char>(inside.at(i, j, k)).store(1, std::memory_order_relaxed);
       }
+    }
 }
 
 }  // namespace
