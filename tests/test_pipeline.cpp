@@ -129,6 +129,7 @@ TEST(Pipeline, SingleRunFreesItsInputsAndGivesTheSameMesh) {
   EXPECT_TRUE(pre.nearest_opposite.data.empty());
   EXPECT_FALSE(pre.indicator.data.empty());  // stage 6 and the report still use these
   EXPECT_FALSE(pre.object.data.empty());
+  EXPECT_FALSE(once.lloyd()->history().empty());  // its voxels went, its record stays
   const TetMesh &a = *kept.final_mesh(), &b = *once.final_mesh();
   ASSERT_EQ(a.vertices.size(), b.vertices.size());
   ASSERT_EQ(a.tets.size(), b.tets.size());

@@ -198,6 +198,7 @@ void Pipeline::free_inputs_used_up_by(Stage s) {
   switch (s) {
     case Stage::preprocess: free(preprocess_->medial_axis); break;  // the lfs is made of it
     case Stage::cvt: free(preprocess_->lfs_mm); break;  // the bricks hold the density
+    case Stage::shallow: lloyd_->release_voxels(); break;  // sites and history stay
     case Stage::mesh: free(preprocess_->nearest_opposite); break;  // refinement's last use
     default: break;
   }

@@ -51,8 +51,8 @@ class Pipeline {
   // What the pipeline keeps. `keep`: the image and every stage's intermediate results (the
   // viewer re-runs stages and shows the fields). `once`: a single run through the stages,
   // which frees each input once its last stage has used it — the image after stage 1 has
-  // selected the object, the medial axis after stage 1, the lfs after stage 3, the feature
-  // transform after stage 5 — so the run's peak memory is lower. Re-running a stage after its
+  // selected the object, the medial axis after stage 1, the lfs after stage 3, the Lloyd
+  // stepper's voxels after stage 4, the feature transform after stage 5 — so the run's peak memory is lower. Re-running a stage after its
   // input was freed throws InputError.
   enum class ImageUse { keep, once };
   // Makes every stage stale.

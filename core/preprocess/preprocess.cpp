@@ -120,11 +120,6 @@ PreprocessResult preprocess(std::shared_ptr<const Image> image, const Preprocess
   }
   const Grid& g = r.object.grid;
   {
-    StepTimer t(r.steps, progress, "smoothed indicator");
-    r.smoothing_sigma_mm = effective_smoothing_sigma_mm(options.smoothing_sigma_mm, g);
-    r.indicator = smooth_indicator(r.object, r.smoothing_sigma_mm, progress);
-  }
-  {
     StepTimer t(r.steps, progress, "distance transform");
     r.nearest_opposite = nearest_of_other_phase(r.object, progress);
   }
@@ -138,6 +133,12 @@ PreprocessResult preprocess(std::shared_ptr<const Image> image, const Preprocess
     StepTimer t(r.steps, progress, "local feature size");
     r.lfs_bounds = effective_lfs_bounds(options.lfs, r.object);
     r.lfs_mm = compute_local_feature_size(r.medial_axis, r.lfs_bounds, progress);
+  }
+  // After the transforms, whose temporaries then need not share memory with it.
+  {
+    StepTimer t(r.steps, progress, "smoothed indicator");
+    r.smoothing_sigma_mm = effective_smoothing_sigma_mm(options.smoothing_sigma_mm, g);
+    r.indicator = smooth_indicator(r.object, r.smoothing_sigma_mm, progress);
   }
   {
     StepTimer t(r.steps, progress, "boundary voxels");

@@ -16,6 +16,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <stdexcept>
 #include <limits>
 #include <random>
 #include <string>
@@ -156,6 +157,17 @@ void LloydStepper::pack_bricks(const Mask& object,
   }
 }
 
+void LloydStepper::release_voxels() {
+  std::vector<VoxelBrick>().swap(bricks_);
+  std::vector<std::int32_t>().swap(brick_at_);
+  std::vector<std::int32_t>().swap(weight_);
+  released_ = true;
+}
+
+void LloydStepper::require_voxels() const {
+  if (released_) throw std::logic_error("CVT sampling: the stepper's voxels were released");
+}
+
 bool LloydStepper::inside(int i, int j, int k) const {
   if (!grid_.contains(i, j, k)) return false;
   const int bi = i / brick_[0], bj = j / brick_[1], bk = k / brick_[2];
@@ -179,6 +191,7 @@ void LloydStepper::set_sites(std::vector<Vec3> local) {
 // Voxel with probability ∝ its quantised ρ (bricks by binary search on cumulative weights, then
 // a scan inside the brick), uniform position inside the voxel. Integer draws: deterministic.
 void LloydStepper::initialize() {
+  require_voxels();
   const std::size_t bvol = std::size_t(brick_[0]) * brick_[1] * brick_[2];
   std::vector<std::int64_t> cumulative(bricks_.size() + 1, 0);
   for (std::size_t b = 0; b < bricks_.size(); ++b) {
@@ -215,6 +228,7 @@ void LloydStepper::initialize() {
 }
 
 IterationStats LloydStepper::step(const Progress& progress) {
+  require_voxels();
   if (!initialized_) initialize();
   const auto t0 = std::chrono::steady_clock::now();
   const std::size_t n = sites_local_.size();
@@ -331,6 +345,7 @@ int LloydStepper::run_to_convergence(const Progress& progress) {
 }
 
 void LloydStepper::compute_labels(Volume<std::int32_t>& out) const {
+  require_voxels();
   out = Volume<std::int32_t>(grid_, -1);
   if (sites_local_.empty()) return;
   const PointGrid sites = site_grid(grid_, sites_local_, resolved_.spacing_mm);

@@ -95,6 +95,9 @@ class LloydStepper {
   const std::vector<Vec3>& sites_local() const { return sites_local_; }  // mm, spacing ⊙ index
   const std::vector<Vec3>& sites_world() const { return sites_world_; }  // mm
   const std::vector<IterationStats>& history() const { return history_; }
+  // Frees the voxels (the density bricks, most of the stepper's memory) once no more steps or
+  // voxel owners are wanted; sites and history stay. Stepping or labelling after it throws.
+  void release_voxels();
 
   // Owner (nearest site, current sites) of every voxel; −1 outside the object.
   void compute_labels(Volume<std::int32_t>& out) const;
@@ -109,6 +112,7 @@ class LloydStepper {
   void pack_bricks(const Mask& object, const std::function<float(std::size_t)>& density);
   void set_sites(std::vector<Vec3> local);
   bool inside(int i, int j, int k) const;
+  void require_voxels() const;
 
   Grid grid_;
   CvtResolved resolved_;
@@ -121,7 +125,7 @@ class LloydStepper {
   std::vector<std::int32_t> weight_;        // per brick slot: ρ·2^20, −1 outside the object
   std::vector<Vec3> sites_local_, sites_world_;
   std::vector<IterationStats> history_;
-  bool initialized_ = false, converged_ = false;
+  bool initialized_ = false, converged_ = false, released_ = false;
 };
 
 }  // namespace cvt
