@@ -48,16 +48,60 @@ void convolve_axis(Volume<float>& f, int axis, const std::vector<float>& kernel,
   });
 }
 
+// The same along axis 1 or 2, a plane at a time: the plane of the lines through one index of
+// the remaining axis, held as rows along i, so the kernel runs over whole contiguous rows (not
+// strided gathers). Each voxel's sum has the same terms in the same order as convolve_axis, and
+// constant lines stay unchanged as there: the result is bitwise the same.
+void convolve_across_rows(Volume<float>& f, int axis, const std::vector<float>& kernel,
+                          const Progress& progress) {
+  const Grid& g = f.grid;
+  const int nx = g.dims[0], n = g.dims[axis];
+  const int other = axis == 1 ? 2 : 1;
+  const std::ptrdiff_t line_stride = axis == 1 ? nx : std::ptrdiff_t(nx) * g.dims[1];
+  const std::ptrdiff_t plane_stride = other == 1 ? nx : std::ptrdiff_t(nx) * g.dims[1];
+  const int radius = int(kernel.size() / 2);
+  tbb::parallel_for(0, g.dims[other], [&](int c) {
+    progress.check_cancelled();
+    float* base = f.data.data() + std::ptrdiff_t(c) * plane_stride;
+    std::vector<float> plane(std::size_t(n) * nx), acc(nx);
+    for (int t = 0; t < n; ++t)
+      std::copy_n(base + t * line_stride, nx, plane.data() + std::size_t(t) * nx);
+    std::vector<char> varies(nx, 0);
+    bool any = false;
+    for (int t = 1; t < n; ++t) {
+      const float* row = plane.data() + std::size_t(t) * nx;
+      for (int i = 0; i < nx; ++i) varies[i] |= row[i] != plane[i];
+    }
+    for (int i = 0; i < nx && !any; ++i) any = varies[i];
+    if (!any) return;
+    for (int t = 0; t < n; ++t) {
+      std::fill(acc.begin(), acc.end(), 0.0f);
+      for (int s = -radius; s <= radius; ++s) {
+        const float w = kernel[s + radius];
+        const float* row = plane.data() + std::size_t(std::clamp(t + s, 0, n - 1)) * nx;
+        for (int i = 0; i < nx; ++i) acc[i] += w * row[i];
+      }
+      float* out = base + t * line_stride;
+      for (int i = 0; i < nx; ++i)
+        if (varies[i]) out[i] = acc[i];
+    }
+  });
+}
+
 }  // namespace
 
 Volume<float> smooth_indicator(const Mask& mask, double sigma_mm, const Progress& progress) {
   Volume<float> f(mask.grid, 0.0f);
-  for (std::size_t v = 0; v < mask.size(); ++v) f.data[v] = mask.data[v] ? 1.0f : 0.0f;
+  tbb::parallel_for(std::size_t(0), mask.size(),
+                    [&](std::size_t v) { f.data[v] = mask.data[v] ? 1.0f : 0.0f; });
   if (sigma_mm <= 0) return f;
   for (int axis = 0; axis < 3; ++axis) {
     const double sigma_voxels = sigma_mm / mask.grid.spacing[axis];
     if (sigma_voxels < 0.2) continue;  // the kernel would be ≈ a delta
-    convolve_axis(f, axis, gaussian_kernel(sigma_voxels), progress);
+    if (axis == 0)
+      convolve_axis(f, axis, gaussian_kernel(sigma_voxels), progress);
+    else
+      convolve_across_rows(f, axis, gaussian_kernel(sigma_voxels), progress);
   }
   return f;
 }
