@@ -141,6 +141,8 @@ const std::vector<std::string>& mesh_write_extensions() {
   return extensions;
 }
 
+bool mesh_format_has_cell_data(const std::string& path) { return lower_extension(path) == ".vtu"; }
+
 const std::vector<std::string>& mesh_read_extensions() {
   static const std::vector<std::string> extensions = {".mesh", ".vtu"};
   return extensions;

@@ -48,6 +48,8 @@ TetMesh read_mesh(const std::string& path);
 // The extensions write_mesh and read_mesh accept, e.g. ".mesh".
 const std::vector<std::string>& mesh_write_extensions();
 const std::vector<std::string>& mesh_read_extensions();
+// Whether the format of `path` stores MeshWriteOptions::cell_data (only .vtu does).
+bool mesh_format_has_cell_data(const std::string& path);
 
 namespace detail {  // shared by mesh_io.cpp, mesh_writers.cpp and mesh_readers.cpp
 
