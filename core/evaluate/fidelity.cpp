@@ -40,6 +40,8 @@ std::size_t subdivisions(const TriangleSurface& s, const Triangle& t, double h) 
 
 // Distances to the nearest triangle of a surface (CGAL's AABB tree).
 class NearestTriangle {
+  static constexpr std::size_t kHintStride = 8;
+
  public:
   explicit NearestTriangle(const TriangleSurface& target) {
     triangles_.reserve(target.triangles.size());
@@ -49,7 +51,13 @@ class NearestTriangle {
     if (triangles_.empty()) return;
     tree_.insert(triangles_.begin(), triangles_.end());
     tree_.build();
-    tree_.accelerate_distance_queries();  // built now, not lazily inside the parallel loops
+    // The search tree of hints, built now (not lazily inside the parallel loops), from a vertex
+    // of every kHintStride-th triangle: on a marching-cubes surface of tiny triangles, as good
+    // a start for a query as one per triangle, at a fraction of the build.
+    std::vector<Tree::Point_and_primitive_id> hints;
+    for (std::size_t t = 0; t < triangles_.size(); t += kHintStride)
+      hints.emplace_back(triangles_[t].vertex(0), triangles_.cbegin() + std::ptrdiff_t(t));
+    tree_.accelerate_distance_queries(hints.begin(), hints.end());
   }
   bool empty() const { return triangles_.empty(); }
 
