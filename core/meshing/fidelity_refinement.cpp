@@ -125,6 +125,7 @@ void voxelize_tet(const TetMesh& mesh, const Tet& t, Mask& inside) {
         if (lower) lo_i = std::max(lo_i, std::ceil(x) - 1);
         else hi_i = std::min(hi_i, std::floor(x) + 1);
       }
+      if (lo_i > hi_i) continue;  // both now lie in [from, to]: safe to convert
       for (int i = int(lo_i); i <= int(hi_i); ++i) {
         const Vec3 p = Vec3{double(i), double(j), double(k)} - c[0];
         const double b1 = dot(r1, p), b2 = dot(r2, p), b3 = dot(r3, p);
