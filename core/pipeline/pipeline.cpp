@@ -194,12 +194,12 @@ void Pipeline::run_stage(Stage s, const Progress& progress) {
 }
 
 void Pipeline::free_inputs_used_up_by(Stage s) {
-  const auto free = [](auto& volume) { volume = std::decay_t<decltype(volume)>(); };
+  const auto drop = [](auto& volume) { volume = std::decay_t<decltype(volume)>(); };
   switch (s) {
-    case Stage::preprocess: free(preprocess_->medial_axis); break;  // the lfs is made of it
-    case Stage::cvt: free(preprocess_->lfs_mm); break;  // the bricks hold the density
+    case Stage::preprocess: drop(preprocess_->medial_axis); break;  // the lfs is made of it
+    case Stage::cvt: drop(preprocess_->lfs_mm); break;  // the bricks hold the density
     case Stage::shallow: lloyd_->release_voxels(); break;  // sites and history stay
-    case Stage::mesh: free(preprocess_->nearest_opposite); break;  // refinement's last use
+    case Stage::mesh: drop(preprocess_->nearest_opposite); break;  // refinement's last use
     default: break;
   }
 }
