@@ -5,6 +5,7 @@
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
+#include <functional>
 #include <numeric>
 #include <string>
 
@@ -98,16 +99,25 @@ SurfaceTopology surface_topology(const std::vector<Triangle>& tris, std::size_t 
   for (const Triangle& t : tris)
     for (int s = 0; s < 3; ++s) links.push_back({t[s], t[(s + 1) % 3], t[(s + 2) % 3]});
   tbb::parallel_sort(links.begin(), links.end());
-  std::vector<std::array<std::int32_t, 2>> link;
-  for (std::size_t i = 0; i < links.size();) {
-    std::size_t j = i;
-    link.clear();
-    for (; j < links.size() && links[j][0] == links[i][0]; ++j)
-      link.push_back({links[j][1], links[j][2]});
-    ++v.vertices;
-    if (!single_cycle(link)) ++v.non_manifold_vertices;
-    i = j;
-  }
+  // Each vertex's link is checked on its own, so the vertices go in parallel (counts only).
+  std::vector<std::size_t> first;  // where each vertex's run of links starts
+  for (std::size_t i = 0; i < links.size(); ++i)
+    if (i == 0 || links[i][0] != links[i - 1][0]) first.push_back(i);
+  first.push_back(links.size());
+  v.vertices = first.size() - 1;
+  v.non_manifold_vertices = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, v.vertices), std::size_t(0),
+      [&](const tbb::blocked_range<std::size_t>& r, std::size_t bad) {
+        std::vector<std::array<std::int32_t, 2>> link;
+        for (std::size_t g = r.begin(); g != r.end(); ++g) {
+          link.clear();
+          for (std::size_t j = first[g]; j < first[g + 1]; ++j)
+            link.push_back({links[j][1], links[j][2]});
+          bad += !single_cycle(link);
+        }
+        return bad;
+      },
+      std::plus<>());
   v.euler_characteristic = (long long)v.vertices - (long long)v.edges + (long long)v.triangles;
   UnionFind uf(vertex_count);
   for (const Triangle& t : tris) uf.unite(t[0], t[1]), uf.unite(t[0], t[2]);
