@@ -107,7 +107,7 @@ void run(const MeshArgs& args) {
   Pipeline pipe;
   pipe.set_parameters(parameters);
   pipe.set_evaluate_fidelity(args.evaluate);
-  pipe.set_image(std::make_shared<Image>(read_image(args.image)), Pipeline::ImageUse::once);
+  pipe.set_image(std::make_shared<Image>(read_image(args.image)), Pipeline::Run::once);
   pipe.run_all(progress);
 
   const TetMesh& mesh = *pipe.final_mesh();

@@ -118,7 +118,7 @@ TEST(Pipeline, SingleRunFreesItsInputsAndGivesTheSameMesh) {
   {
     auto image = torus_image();
     watch = image;
-    once.set_image(std::move(image), Pipeline::ImageUse::once);
+    once.set_image(std::move(image), Pipeline::Run::once);
   }
   once.run_all();
   EXPECT_TRUE(watch.expired()) << "the image outlived stage 1";

@@ -53,7 +53,7 @@ TriangleSurface boundary_surface(const TetMesh& mesh);
 
 struct FidelityOptions {
   // Sample spacing in smallest voxel spacings: two keep the liver's mean and 95th percentile
-  // within 0.005 mm of a spacing of half a voxel, at a sixth of the samples.
+  // within 0.005 mm of a spacing of half a voxel, with a quarter of the samples.
   double sample_spacing_voxels = 2.0;
   std::size_t max_samples = 4000000;   // area samples per surface (see SurfaceDistanceOptions)
 };

@@ -59,9 +59,9 @@ MeshGenerationOptions mesh_options(const Parameters& p) {
   return o;
 }
 
-void Pipeline::set_image(std::shared_ptr<const Image> image, ImageUse use) {
+void Pipeline::set_image(std::shared_ptr<const Image> image, Run run) {
   image_ = std::move(image);
-  image_use_ = use;
+  run_ = run;
   invalidate_from(Stage::preprocess);
 }
 
@@ -152,7 +152,7 @@ void Pipeline::run_stage(Stage s, const Progress& progress) {
   switch (s) {
     case Stage::preprocess:
       preprocess_ = std::make_unique<PreprocessResult>(cvt::preprocess(
-          image_use_ == ImageUse::once ? std::move(image_) : image_,
+          run_ == Run::once ? std::move(image_) : image_,
           preprocess_options(parameters_), progress));
       break;
     case Stage::surface:
@@ -188,7 +188,7 @@ void Pipeline::run_stage(Stage s, const Progress& progress) {
   }
   done_[int(s)] = true;
   ++generation_[int(s)];
-  if (image_use_ == ImageUse::once) free_inputs_used_up_by(s);
+  if (run_ == Run::once) free_inputs_used_up_by(s);
   record(std::string(stage_name(s)),
          std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count());
 }

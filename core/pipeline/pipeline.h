@@ -48,15 +48,16 @@ struct StageRecord {
 
 class Pipeline {
  public:
-  // What the pipeline keeps. `keep`: the image and every stage's intermediate results (the
-  // viewer re-runs stages and shows the fields). `once`: a single run through the stages,
-  // which frees each input once its last stage has used it — the image after stage 1 has
-  // selected the object, the medial axis after stage 1, the lfs after stage 3, the Lloyd
-  // stepper's voxels after stage 4, the feature transform after stage 5 — so the run's peak memory is lower. Re-running a stage after its
-  // input was freed throws InputError.
-  enum class ImageUse { keep, once };
+  // How the pipeline will be run. `repeatable`: it keeps the image and every stage's
+  // intermediate results (the viewer re-runs stages and shows the fields). `once`: a single
+  // run through the stages, which frees each input after its last stage has used it (the
+  // image once stage 1 has selected the object, the medial axis after stage 1, the lfs after
+  // stage 3, the Lloyd stepper's voxels after stage 4, the feature transform after stage 5),
+  // so the run's peak memory is lower. Re-running a stage whose input was freed throws
+  // InputError.
+  enum class Run { repeatable, once };
   // Makes every stage stale.
-  void set_image(std::shared_ptr<const Image> image, ImageUse use = ImageUse::keep);
+  void set_image(std::shared_ptr<const Image> image, Run run = Run::repeatable);
   const Image* image() const { return image_.get(); }  // null after a once-run's stage 1
 
   const Parameters& parameters() const { return parameters_; }
@@ -114,7 +115,7 @@ class Pipeline {
   void record(std::string name, double wall_s);
 
   std::shared_ptr<const Image> image_;
-  ImageUse image_use_ = ImageUse::keep;
+  Run run_ = Run::repeatable;
   Parameters parameters_;
   bool done_[kStageCount] = {};
   std::uint64_t generation_[kStageCount] = {};

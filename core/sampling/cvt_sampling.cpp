@@ -16,9 +16,9 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <stdexcept>
 #include <limits>
 #include <random>
+#include <stdexcept>
 #include <string>
 
 #include "base/errors.h"
