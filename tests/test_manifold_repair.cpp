@@ -37,6 +37,19 @@ TEST(PinchedVertices, TetsTouchingAtAVertexOrAlongAnEdgePinchThere) {
             (std::vector<std::int32_t>{0, 1}));
 }
 
+TEST(LinkIsPinched, OneCycleInAnyOrderIsADiscAndAnythingElsePinches) {
+  // A vertex inside a boundary sheet: its link is one cycle, whatever the edges' order and
+  // direction.
+  EXPECT_FALSE(link_is_pinched({{1, 2}, {3, 4}, {2, 3}, {1, 4}}));
+  EXPECT_FALSE(link_is_pinched({{2, 1}, {4, 3}, {3, 2}, {4, 1}}));
+  EXPECT_FALSE(link_is_pinched({}));  // off the boundary
+  // Two sheets touching at the vertex (two cycles), an open fan (a path), and a
+  // non-manifold edge (a link vertex of degree 4).
+  EXPECT_TRUE(link_is_pinched({{1, 2}, {2, 3}, {3, 1}, {4, 5}, {5, 6}, {6, 4}}));
+  EXPECT_TRUE(link_is_pinched({{1, 2}, {2, 3}, {3, 4}}));
+  EXPECT_TRUE(link_is_pinched({{1, 2}, {2, 3}, {3, 1}, {1, 4}, {4, 5}, {5, 1}}));
+}
+
 TEST(RepairBoundaryManifold, AnEdgePinchLosesItsSmallerFan) {
   // Two tets on edge {0,1}, plus a third glued to the first by a face: fans of 2 and 1 tets.
   std::vector<Vec3> p = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0, 0, 1}, {0, -1, 0}, {0, 0, -1}, {0.5, 0.5, 0.5}};

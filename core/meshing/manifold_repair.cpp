@@ -150,6 +150,10 @@ bool is_flat_tet(const std::vector<Vec3>& points, const Tet& t) {
   return v <= 1e-9 * longest * longest * longest;
 }
 
+bool link_is_pinched(const std::vector<Edge>& link) {
+  return !link.empty() && !link_is_one_cycle(link.data(), link.size());
+}
+
 std::vector<std::int32_t> pinched_vertices(std::size_t vertex_count,
                                            const std::vector<Triangle>& boundary) {
   const BoundaryLinks links(boundary, vertex_count);

@@ -7,6 +7,8 @@
 
 #include <array>
 #include <cstddef>
+#include <cstdint>
+#include <utility>
 #include <vector>
 
 #include "base/tet_mesh.h"
@@ -25,6 +27,10 @@ struct ManifoldRepairReport {
 // link is not one cycle): the ends of non-manifold edges and the points where two sheets touch.
 std::vector<std::int32_t> pinched_vertices(std::size_t vertex_count,
                                            const std::vector<Triangle>& boundary);
+
+// The same test for one vertex, given its link: the far edges of its boundary triangles (vertex
+// pairs, in any order). False for an empty link (a vertex off the boundary).
+bool link_is_pinched(const std::vector<std::pair<std::int32_t, std::int32_t>>& link);
 
 // tets index `points`; removed tets are appended to `removed` (as corner positions) when given.
 ManifoldRepairReport repair_boundary_manifold(const std::vector<Vec3>& points,

@@ -32,6 +32,7 @@ using VertexBase = CGAL::Triangulation_vertex_base_with_info_3<int, Kernel>;
 enum class CellTest : signed char { untested, inside, pole, outside };
 struct CellInfo {
   int fate = 0;  // a CellFate, negated while restore_enclosed marks cells
+  signed char settled = -1;     // its fate when the last pass tested the pinches; −1 for a new cell
   CellTest test = CellTest::untested;
   signed char flat = -1;        // is_flat_tet of its corners: −1 not yet known, 0 no, 1 yes
   std::int32_t component = -1;  // kept cells: their face-connected group, when mesh() needs it
@@ -172,6 +173,31 @@ std::vector<Triangle> kept_boundary(const Delaunay& dt) {
     }
   }
   return faces;
+}
+
+// Whether the boundary of the kept cells pinches at v: its link there, the far edges of the
+// boundary faces around v, is not one cycle. It depends only on the cells around v, so after a
+// pass only the vertices of cells that are new or changed fate need the test again.
+bool pinched_at(const Delaunay& dt, Delaunay::Vertex_handle v,
+                std::vector<Delaunay::Cell_handle>& cells,
+                std::vector<std::pair<std::int32_t, std::int32_t>>& link) {
+  cells.clear();
+  link.clear();
+  dt.finite_incident_cells(v, std::back_inserter(cells));
+  for (const Delaunay::Cell_handle c : cells) {
+    if (c->info().fate != kept_cell) continue;
+    const int i = c->index(v);
+    for (int k = 0; k < 4; ++k) {
+      if (k == i) continue;
+      const Delaunay::Cell_handle n = c->neighbor(k);
+      if (!dt.is_infinite(n) && n->info().fate == kept_cell) continue;
+      int far[2], m = 0;
+      for (int j = 0; j < 4; ++j)
+        if (j != i && j != k) far[m++] = c->vertex(j)->info();
+      link.push_back({far[0], far[1]});
+    }
+  }
+  return link_is_pinched(link);
 }
 
 // Rule 3, last part: kept cells on the boundary that are flat (coplanar samples make
@@ -514,7 +540,7 @@ MeshGenerationResult DelaunayMesher::mesh() {
   for (int pass = 0;; ++pass) {
     progress(pass == 0 ? "pole removal" : "pinch removal", 0.7);
     out.delaunay_tets = out.removed_by_poles = 0;
-    std::vector<Delaunay::Cell_handle> outside;
+    std::vector<Delaunay::Cell_handle> outside, changed;
     for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
       ++out.delaunay_tets;
       CellInfo& info = c->info();
@@ -531,6 +557,7 @@ MeshGenerationResult DelaunayMesher::mesh() {
                                                    : kept_cell;
       if (info.fate == pole_cell) ++out.removed_by_poles;
       if (info.fate == outside_cell) outside.push_back(c);
+      else if (info.fate != info.settled) changed.push_back(c);
     }
     if (options.remove_outside_tets)
       for (const Vec3& p : options.outside_points) {
@@ -544,7 +571,30 @@ MeshGenerationResult DelaunayMesher::mesh() {
     if (!options.repair_manifold || pass >= options.max_pinch_passes) break;
     // The boundary straight from the cells' adjacency (no tet list to sort each pass); the
     // pinched samples come out in index order, so their removal order is deterministic.
-    std::vector<std::int32_t> pinched = pinched_vertices(std::size_t(nb + ni), kept_boundary(dt));
+    // Every fate now settles. Cells not listed kept theirs, and restore_enclosed touched only
+    // outside ones.
+    std::vector<Delaunay::Vertex_handle> retest;
+    for (const auto& list : {changed, outside})
+      for (const Delaunay::Cell_handle c : list) {
+        if (c->info().fate == c->info().settled) continue;
+        c->info().settled = static_cast<signed char>(c->info().fate);
+        for (int k = 0; k < 4; ++k)
+          if (c->vertex(k)->info() >= 0) retest.push_back(c->vertex(k));
+      }
+    // The first pass tests every vertex; later ones only those around a change, as every
+    // vertex pinched before was removed.
+    std::vector<std::int32_t> pinched;
+    if (pass == 0) {
+      pinched = pinched_vertices(std::size_t(nb + ni), kept_boundary(dt));
+    } else {
+      std::sort(retest.begin(), retest.end(),
+                [](auto a, auto b) { return a->info() < b->info(); });
+      retest.erase(std::unique(retest.begin(), retest.end()), retest.end());
+      std::vector<Delaunay::Cell_handle> cells;
+      std::vector<std::pair<std::int32_t, std::int32_t>> link;
+      for (const Delaunay::Vertex_handle v : retest)
+        if (pinched_at(dt, v, cells, link)) pinched.push_back(v->info());
+    }
     if (pinched.empty()) {
       // Flat cells are peeled from the boundary once it no longer pinches; if that makes a
       // pinch, its samples go too and the passes go on.
