@@ -112,6 +112,120 @@ TEST(Voxelize, RandomTetsAgreeWithBarycentricCoordinates) {
   EXPECT_GT(inside_count, 10000u);  // the tets do cover voxels
 }
 
+namespace {
+
+// A jittered lattice of (n+1)³ points over a grid, and its cubes as tets: Kuhn's six around the
+// main diagonal, or twelve from a new point at the centre (ids from the lattice's count on).
+struct LatticeMesh {
+  Grid grid;
+  int n = 0;
+  std::vector<Vec3> points;  // by id
+  std::vector<std::array<std::int32_t, 4>> tets;
+
+  std::int32_t id(int i, int j, int k) const { return (k * (n + 1) + j) * (n + 1) + i; }
+  void kuhn(int i, int j, int k) {
+    const int axes[6][3] = {{0, 1, 2}, {0, 2, 1}, {1, 0, 2}, {1, 2, 0}, {2, 0, 1}, {2, 1, 0}};
+    for (const auto& a : axes) {
+      int at[3] = {i, j, k};
+      std::array<std::int32_t, 4> t;
+      t[0] = id(at[0], at[1], at[2]);
+      for (int s = 0; s < 3; ++s) {
+        ++at[a[s]];
+        t[s + 1] = id(at[0], at[1], at[2]);
+      }
+      tets.push_back(t);
+    }
+  }
+  void star(int i, int j, int k) {
+    points.push_back(grid.index_to_world({i + 0.5, j + 0.45, k + 0.55}));
+    const std::int32_t c = std::int32_t(points.size() - 1);
+    for (int axis = 0; axis < 3; ++axis)
+      for (int side = 0; side < 2; ++side) {
+        int q[4][3];
+        for (int m = 0; m < 4; ++m) {
+          q[m][axis] = side;
+          q[m][(axis + 1) % 3] = (m == 1 || m == 2);
+          q[m][(axis + 2) % 3] = (m >= 2);
+        }
+        auto v = [&](int m) { return id(i + q[m][0], j + q[m][1], k + q[m][2]); };
+        tets.push_back({c, v(0), v(1), v(2)});
+        tets.push_back({c, v(0), v(2), v(3)});
+      }
+  }
+  // The mesh with its vertices in a shuffled order (as a refined mesh renumbers them), and
+  // the id of each.
+  std::pair<TetMesh, std::vector<std::int32_t>> shuffled(std::mt19937& rng) const {
+    std::vector<std::int32_t> ids(points.size());
+    for (std::size_t v = 0; v < ids.size(); ++v) ids[v] = std::int32_t(v);
+    std::shuffle(ids.begin(), ids.end(), rng);
+    std::vector<std::int32_t> index_of(points.size());
+    TetMesh m;
+    for (std::size_t v = 0; v < ids.size(); ++v) {
+      index_of[std::size_t(ids[v])] = std::int32_t(v);
+      m.vertices.push_back(points[std::size_t(ids[v])]);
+    }
+    for (const auto& t : tets) {
+      const int r = int(rng() % 4);  // the corners in another even order
+      const Tet mapped = {index_of[t[0]], index_of[t[1]], index_of[t[2]], index_of[t[3]]};
+      static const int even[4][4] = {{0, 1, 2, 3}, {1, 0, 3, 2}, {2, 3, 0, 1}, {3, 2, 1, 0}};
+      m.tets.push_back({mapped[even[r][0]], mapped[even[r][1]], mapped[even[r][2]], mapped[even[r][3]]});
+    }
+    std::shuffle(m.tets.begin(), m.tets.end(), rng);
+    return {m, ids};
+  }
+};
+
+}  // namespace
+
+// Three meshes of a lattice, each changing the last in places (cubes split from a new centre
+// point, cubes removed, cubes back to Kuhn's split) with its vertices renumbered: every update
+// gives exactly voxelize()'s voxels.
+TEST(IncrementalVoxelizer, EveryUpdateEqualsVoxelizingTheWholeMesh) {
+  Grid g;
+  g.dims = {40, 36, 22};
+  g.spacing = {0.6, 0.7, 1.3};
+  g.origin = {5, -4, 2};
+  g.direction = rotation_matrix({1, 2, 0.5}, 0.7);
+  LatticeMesh lattice;
+  lattice.n = 6;
+  lattice.grid = g;
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> jitter(-0.8, 0.8);
+  for (int k = 0; k <= lattice.n; ++k)
+    for (int j = 0; j <= lattice.n; ++j)
+      for (int i = 0; i <= lattice.n; ++i)  // cubes of ~5 voxels, the lattice inside the grid
+        lattice.points.push_back(g.index_to_world(
+            {2 + 5.5 * i + jitter(rng), 2 + 5 * j + jitter(rng), 1 + 3 * k + jitter(rng) / 2}));
+  const auto cubes = [&](auto split_of) {
+    lattice.tets.clear();
+    for (int k = 0; k < lattice.n; ++k)
+      for (int j = 0; j < lattice.n; ++j)
+        for (int i = 0; i < lattice.n; ++i) {
+          const char split = split_of(i, j, k);
+          if (split == 'k') lattice.kuhn(i, j, k);
+          if (split == 's') lattice.star(i, j, k);
+        }
+  };
+  IncrementalVoxelizer voxels(g);
+  std::vector<Mask> results;
+  const auto check = [&](const char* step) {
+    const auto [mesh, ids] = lattice.shuffled(rng);
+    const Mask expected = voxelize(mesh, g);
+    const Mask got = voxels.update(mesh, ids);
+    EXPECT_EQ(got.data, expected.data) << step;
+    results.push_back(got);
+  };
+  cubes([](int, int, int) { return 'k'; });
+  check("all Kuhn");
+  cubes([](int i, int j, int k) { return i < 2 && j < 3 ? 's' : i == 4 && k >= 3 ? '-' : 'k'; });
+  check("split from centres, a slab removed");
+  cubes([](int i, int j, int k) { return i >= 3 && j == 5 ? 's' : i == 4 && k >= 3 ? '-' : 'k'; });
+  check("others split, the first back to Kuhn");
+  // The removed slab is empty; the lattice covers voxels.
+  EXPECT_NE(results[0].data, results[1].data);
+  EXPECT_GT(std::count(results[2].data.begin(), results[2].data.end(), 1), 10000);
+}
+
 TEST(FidelityFix, NothingWhereMeshAndObjectAgree) {
   const Image image = slotted_image();
   Pipeline pipe;

@@ -1,5 +1,5 @@
 // Finding the next run boundary in a mask row eight bytes at a time: the distance transform's
-// pass i walks each row run by run. Internal to the distance transform.
+// pass i walks each row run by run, and the voxelizer keeps its voxels as runs.
 #pragma once
 
 #include <cstdint>

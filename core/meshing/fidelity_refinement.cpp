@@ -5,9 +5,9 @@
 
 #include <algorithm>
 #include <array>
-#include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <numeric>
 #include <utility>
 
 #include "base/point_grid.h"
@@ -82,59 +82,6 @@ class MeshBoundaryProbe {
   std::vector<std::array<int, 3>> offsets_;
 };
 
-// Sets the voxels of `inside` whose centres lie in tet t (closed, with a little slack).
-void voxelize_tet(const TetMesh& mesh, const Tet& t, Mask& inside) {
-  const Grid& grid = inside.grid;
-  const double eps = 1e-9;
-  std::array<Vec3, 4> c;
-  Vec3 lo{1e300, 1e300, 1e300}, hi{-1e300, -1e300, -1e300};
-  for (int k = 0; k < 4; ++k) {
-    c[k] = grid.world_to_index(mesh.vertices[t[k]]);
-    for (int a = 0; a < 3; ++a) {
-      lo[a] = std::min(lo[a], c[k][a]);
-      hi[a] = std::max(hi[a], c[k][a]);
-    }
-  }
-  // Barycentric coordinates through the inverse of [c1−c0, c2−c0, c3−c0] (index space).
-  const Vec3 e1 = c[1] - c[0], e2 = c[2] - c[0], e3 = c[3] - c[0];
-  const double det = dot(e1, cross(e2, e3));
-  if (std::abs(det) < 1e-12) return;
-  const Vec3 r1 = cross(e2, e3) / det, r2 = cross(e3, e1) / det, r3 = cross(e1, e2) / det;
-  std::array<int, 3> from, to;
-  for (int a = 0; a < 3; ++a) {
-    from[a] = std::max(0, int(std::ceil(lo[a] - eps)));
-    to[a] = std::min(grid.dims[a] - 1, int(std::floor(hi[a] + eps)));
-  }
-  // Along a row the barycentric coordinates are linear in i, so each of the four conditions
-  // bounds i on one side: the row's voxels are tested only within those bounds widened by one
-  // (far beyond rounding), with the same test as every other voxel. A coefficient too small to
-  // bound i safely leaves that side to the test.
-  const double slope[4] = {r1.x, r2.x, r3.x, r1.x + r2.x + r3.x};
-  for (int k = from[2]; k <= to[2]; ++k)
-    for (int j = from[1]; j <= to[1]; ++j) {
-      const Vec3 q = Vec3{0.0, double(j), double(k)} - c[0];
-      const double at0[4] = {dot(r1, q), dot(r2, q), dot(r3, q), 0};
-      double lo_i = from[0], hi_i = to[0];
-      for (int m = 0; m < 4; ++m) {
-        const double b0 = m < 3 ? at0[m] : at0[0] + at0[1] + at0[2];
-        const double limit = m < 3 ? -eps : 1 + eps;  // b ≥ limit (m < 3), b ≤ limit (m = 3)
-        const double a = slope[m];
-        if (std::abs(a) < 1e-6) continue;
-        const double x = (limit - b0) / a;  // where b crosses its limit
-        const bool lower = (m < 3) == (a > 0);
-        if (lower) lo_i = std::max(lo_i, std::ceil(x) - 1);
-        else hi_i = std::min(hi_i, std::floor(x) + 1);
-      }
-      if (lo_i > hi_i) continue;  // both now lie in [from, to]: safe to convert
-      for (int i = int(lo_i); i <= int(hi_i); ++i) {
-        const Vec3 p = Vec3{double(i), double(j), double(k)} - c[0];
-        const double b1 = dot(r1, p), b2 = dot(r2, p), b3 = dot(r3, p);
-        if (b1 >= -eps && b2 >= -eps && b3 >= -eps && b1 + b2 + b3 <= 1 + eps)
-          std::atomic_ref<unsigned char>(inside.at(i, j, k)).store(1, std::memory_order_relaxed);
-      }
-    }
-}
-
 }  // namespace
 
 OccupancyFunction indicator_occupancy(const Volume<float>& indicator) {
@@ -144,19 +91,6 @@ OccupancyFunction indicator_occupancy(const Volume<float>& indicator) {
       if (!(idx[a] >= 0 && idx[a] <= indicator.grid.dims[a] - 1)) return 0.0;
     return double(sample_trilinear(indicator, idx));
   };
-}
-
-Mask voxelize(const TetMesh& mesh, const Grid& grid, const Progress& progress) {
-  Mask inside(grid, 0);
-  // Tets in parallel: neighbours share voxels, which they can only set to 1 (atomically), so
-  // the result does not depend on the order.
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh.tets.size(), 2048),
-                    [&](const tbb::blocked_range<std::size_t>& range) {
-                      progress.check_cancelled();
-                      for (std::size_t n = range.begin(); n != range.end(); ++n)
-                        voxelize_tet(mesh, mesh.tets[n], inside);
-                    });
-  return inside;
 }
 
 FidelityFix find_fidelity_fix(const Mask& mesh_inside, const PreprocessResult& pre,
@@ -240,15 +174,28 @@ RefinedMesh build_refined_mesh(const PreprocessResult& pre, const std::vector<Ve
   MeshGenerationOptions mesh_options = generation;
   if (mesh_options.small_tet_edge_mm == 0) mesh_options.small_tet_edge_mm = 2 * largest(grid.spacing);
 
+  // Each sample has an id for the voxelizer, which sees rounds change the mesh only locally.
+  IncrementalVoxelizer voxels(grid);
+  std::vector<std::int32_t> b_id(surface.size()), i_id(interior.size());
+  std::iota(b_id.begin(), b_id.end(), 0);
+  std::iota(i_id.begin(), i_id.end(), std::int32_t(b_id.size()));
+  std::int32_t next_id = std::int32_t(b_id.size() + i_id.size());
+
   // The check also returns the deep exposed interior samples as indices into i.
   const auto check = [&](const MeshGenerationResult& m, const std::vector<Vec3>& b,
-                         const std::vector<Vec3>& i, std::vector<int>& deep) {
+                         const std::vector<Vec3>& i, const std::vector<std::int32_t>& b_ids,
+                         const std::vector<std::int32_t>& i_ids, std::vector<int>& deep) {
     progress("fidelity check", 0.95);
     const std::vector<int> exposed = interior_samples_on_boundary(m, b.size());
     std::vector<Vec3> at;
     for (int n : exposed) at.push_back(i[std::size_t(n)]);
-    FidelityFix fix = find_fidelity_fix(voxelize(m.mesh, grid, progress), pre, b, tolerance,
-                                        spacing, progress, at);
+    std::vector<std::int32_t> vertex_id(m.vertex_source.size());
+    for (std::size_t v = 0; v < vertex_id.size(); ++v) {
+      const std::size_t source = std::size_t(m.vertex_source[v]);
+      vertex_id[v] = source < b.size() ? b_ids[source] : i_ids[source - b.size()];
+    }
+    FidelityFix fix = find_fidelity_fix(voxels.update(m.mesh, vertex_id, progress), pre, b,
+                                        tolerance, spacing, progress, at);
     deep.clear();
     for (std::size_t e : fix.deep_boundary) deep.push_back(exposed[e]);
     return fix;
@@ -261,7 +208,7 @@ RefinedMesh build_refined_mesh(const PreprocessResult& pre, const std::vector<Ve
   std::vector<Vec3> added_all, dropped_all;
   FidelityFix fix;
   std::vector<int> deep;  // interior samples (indices into i) at the bottom of pits
-  if (options.max_rounds > 0) fix = check(result, b, i, deep);
+  if (options.max_rounds > 0) fix = check(result, b, i, b_id, i_id, deep);
   for (int round = 0; round < options.max_rounds; ++round) {
     FidelityRefinementRound r{fix.disagreeing_voxels, fix.deep_boundary.size(),
                               fix.samples.size(), 0, false};
@@ -274,24 +221,29 @@ RefinedMesh build_refined_mesh(const PreprocessResult& pre, const std::vector<Ve
     // Interior samples this close to the new boundary samples would make slivers there.
     const PointGrid near(fix.samples, 2.0 * spacing);
     std::vector<Vec3> kept;
+    std::vector<std::int32_t> kept_id;
     std::vector<int> dropped;  // indices into i
     kept.reserve(i.size());
     std::vector<char> exposed(i.size(), 0);  // the pits' bottoms go, whatever their distance
     for (int n : deep) exposed[std::size_t(n)] = 1;
     for (std::size_t n = 0; n < i.size(); ++n)
-      if (exposed[n] || near.any_within(i[n], 2.0 * spacing))
+      if (exposed[n] || near.any_within(i[n], 2.0 * spacing)) {
         dropped.push_back(int(n));
-      else
+      } else {
         kept.push_back(i[n]);
+        kept_id.push_back(i_id[n]);
+      }
     r.dropped_interior = dropped.size();
     std::vector<Vec3> next_b = b;
     next_b.insert(next_b.end(), fix.samples.begin(), fix.samples.end());
+    std::vector<std::int32_t> next_b_id = b_id;
+    for (std::size_t n = 0; n < fix.samples.size(); ++n) next_b_id.push_back(next_id++);
     // The triangulation changes only around the new samples; a rejected round ends
     // refinement, so the mesher is not needed in its old state again.
     mesher.refine(fix.samples, dropped, fix.outside_points);
     MeshGenerationResult next = mesher.mesh();
     std::vector<int> next_deep;
-    FidelityFix next_fix = check(next, next_b, kept, next_deep);
+    FidelityFix next_fix = check(next, next_b, kept, next_b_id, kept_id, next_deep);
     // A round must leave fewer pits, or as many pits and fewer disagreeing voxels; else its
     // mesh is dropped and refinement ends. Pits first: each one is a deviation beyond the
     // tolerance that no voxel shows (on the liver with seed 3, a round trading one of two pits
@@ -305,6 +257,8 @@ RefinedMesh build_refined_mesh(const PreprocessResult& pre, const std::vector<Ve
     for (int n : dropped) dropped_all.push_back(i[std::size_t(n)]);
     b = std::move(next_b);
     i = std::move(kept);
+    b_id = std::move(next_b_id);
+    i_id = std::move(kept_id);
     result = std::move(next);
     fix = std::move(next_fix);
     deep = std::move(next_deep);

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "meshing/mesh_generation.h"
+#include "meshing/voxelize.h"
 #include "preprocess/preprocess.h"
 
 namespace cvt {
@@ -44,9 +45,6 @@ struct FidelityRefinementOptions {
 
 // The occupancy of stage 5: the smoothed indicator, trilinear, 0 outside its grid.
 OccupancyFunction indicator_occupancy(const Volume<float>& indicator);
-
-// Voxels of `grid` whose centre lies in a tet of `mesh` (closed tets, world coordinates).
-Mask voxelize(const TetMesh& mesh, const Grid& grid, const Progress& progress = {});
 
 struct FidelityFix {
   std::size_t disagreeing_voxels = 0;  // where mesh and object differ by more than the tolerance
