@@ -82,6 +82,21 @@ class MeshBoundaryProbe {
   std::vector<std::array<int, 3>> offsets_;
 };
 
+// The voxels where two masks differ, in index order (scanned in parallel, in chunks).
+std::vector<std::size_t> differing_voxels(const Mask& a, const Mask& b, const Progress& progress) {
+  constexpr std::size_t kChunk = std::size_t(1) << 16;
+  const std::size_t n = a.size();
+  std::vector<std::vector<std::size_t>> chunks((n + kChunk - 1) / kChunk);
+  tbb::parallel_for(std::size_t(0), chunks.size(), [&](std::size_t c) {
+    progress.check_cancelled();
+    for (std::size_t v = c * kChunk; v < std::min(n, (c + 1) * kChunk); ++v)
+      if (a.data[v] != b.data[v]) chunks[c].push_back(v);
+  });
+  std::vector<std::size_t> out;
+  for (const auto& chunk : chunks) out.insert(out.end(), chunk.begin(), chunk.end());
+  return out;
+}
+
 }  // namespace
 
 OccupancyFunction indicator_occupancy(const Volume<float>& indicator) {
@@ -120,18 +135,15 @@ FidelityFix find_fidelity_fix(const Mask& mesh_inside, const PreprocessResult& p
     fix.deep_boundary.push_back(e);
     add_sample_near(v);
   }
-  bool any = false;
-  for (std::size_t v = 0; v < object.size() && !any; ++v) any = mesh_inside.data[v] != object.data[v];
-  if (!any) {
+  const std::vector<std::size_t> differing = differing_voxels(mesh_inside, object, progress);
+  if (differing.empty()) {
     fix.samples = keep_spaced(fix.samples, existing, spacing_mm);
     return fix;
   }
   // How far each voxel is from the object boundary we know already; from the mesh boundary,
   // the probe tells whether it is within the tolerance.
   const MeshBoundaryProbe mesh_boundary(mesh_inside, tolerance_mm);
-  for (std::size_t v = 0; v < object.size(); ++v) {
-    if (v % 65536 == 0) progress.check_cancelled();
-    if (mesh_inside.data[v] == object.data[v]) continue;
+  for (const std::size_t v : differing) {
     // Disagreeing voxel: the two boundaries are far apart near it when it lies deep on either
     // side (a pit or a bulge: far from the object boundary; a bridged channel: far from the
     // mesh boundary).

@@ -4,13 +4,81 @@
 
 #include <algorithm>
 #include <cmath>
-#include <queue>
+#include <cstdint>
 
 #include "base/errors.h"
 #include "base/point_grid.h"
 #include "fields/smoothing.h"
 
 namespace cvt {
+namespace {
+
+// A max-heap of the items 0..n−1 by (key[i], i), each held once and moved as its key changes:
+// the order a priority queue of (key, i) pairs with stale entries skipped would give, without
+// the stale entries (on the liver ~0.7 M of them, four times the items).
+class ItemHeap {
+ public:
+  explicit ItemHeap(const std::vector<double>& key) : key_(key), pos_(key.size()) {
+    heap_.resize(key.size());
+    for (std::size_t i = 0; i < heap_.size(); ++i) heap_[i] = std::int32_t(i);
+    std::make_heap(heap_.begin(), heap_.end(), [&](std::int32_t a, std::int32_t b) { return below(a, b); });
+    for (std::size_t p = 0; p < heap_.size(); ++p) pos_[std::size_t(heap_[p])] = std::int32_t(p);
+  }
+  bool empty() const { return heap_.empty(); }
+  std::size_t size() const { return heap_.size(); }
+  std::int32_t top() const { return heap_[0]; }
+  // Takes item i out (the top or any other).
+  void remove(std::int32_t i) {
+    const std::size_t p = std::size_t(pos_[std::size_t(i)]);
+    const std::int32_t last = heap_.back();
+    heap_.pop_back();
+    if (p == heap_.size()) return;
+    place(p, last);
+    changed(last);
+  }
+  // Item i's key changed.
+  void changed(std::int32_t i) {
+    const std::size_t p = std::size_t(pos_[std::size_t(i)]);
+    if (p > 0 && below(heap_[(p - 1) / 2], i)) sift_up(p);
+    else sift_down(p);
+  }
+
+ private:
+  bool below(std::int32_t a, std::int32_t b) const {
+    return key_[std::size_t(a)] < key_[std::size_t(b)] ||
+           (key_[std::size_t(a)] == key_[std::size_t(b)] && a < b);
+  }
+  void place(std::size_t p, std::int32_t i) {
+    heap_[p] = i;
+    pos_[std::size_t(i)] = std::int32_t(p);
+  }
+  void sift_up(std::size_t p) {
+    const std::int32_t i = heap_[p];
+    while (p > 0 && below(heap_[(p - 1) / 2], i)) {
+      place(p, heap_[(p - 1) / 2]);
+      p = (p - 1) / 2;
+    }
+    place(p, i);
+  }
+  void sift_down(std::size_t p) {
+    const std::int32_t i = heap_[p];
+    for (;;) {
+      std::size_t c = 2 * p + 1;
+      if (c >= heap_.size()) break;
+      if (c + 1 < heap_.size() && below(heap_[c], heap_[c + 1])) ++c;
+      if (!below(i, heap_[c])) break;
+      place(p, heap_[c]);
+      p = c;
+    }
+    place(p, i);
+  }
+
+  const std::vector<double>& key_;
+  std::vector<std::int32_t> heap_, pos_;
+};
+
+}  // namespace
+
 bool project_to_level_set(const Volume<float>& field, float level, Vec3& index,
                           double max_move_voxels) {
   const Grid& g = field.grid;
@@ -68,22 +136,15 @@ SurfaceSamples sample_surface(const PreprocessResult& pre, const SurfaceSampling
   // Priority = −(h² − r² lfs²): the log of the energy times 2σ², so no exp() underflows.
   std::vector<double> h(lfs), key(n);
   std::vector<char> in_f(n, 1);
-  using Entry = std::pair<double, int>;
-  std::priority_queue<Entry> queue;
-  for (std::size_t i = 0; i < n; ++i) {
-    key[i] = -(1.0 - r2) * lfs[i] * lfs[i];
-    queue.push({key[i], int(i)});
-  }
+  for (std::size_t i = 0; i < n; ++i) key[i] = -(1.0 - r2) * lfs[i] * lfs[i];
+  ItemHeap heap(key);  // the points still in F
   SurfaceSamples out;
-  std::size_t remaining = n;
-  while (!queue.empty()) {
-    const auto [k, p] = queue.top();
-    queue.pop();
-    if (!in_f[p] || k != key[p]) continue;  // stale entry
-    in_f[p] = 0;
-    --remaining;
-    out.voxels.push_back(F[p]);
-    out.priority_mm2.push_back(float(k));
+  while (!heap.empty()) {
+    const std::int32_t p = heap.top();
+    heap.remove(p);
+    in_f[std::size_t(p)] = 0;
+    out.voxels.push_back(F[std::size_t(p)]);
+    out.priority_mm2.push_back(float(key[std::size_t(p)]));
     const double lfs_p2 = lfs[p] * lfs[p];
     points.for_each_within(pos[p], lfs[p], [&](int q, double d2) {
       if (!in_f[q]) return;
@@ -92,13 +153,13 @@ SurfaceSamples sample_surface(const PreprocessResult& pre, const SurfaceSampling
       key[q] = -(h[q] * h[q] - r2 * lfs_p2);
       if (d < options.r * lfs[q]) {
         in_f[q] = 0;
-        --remaining;
+        heap.remove(q);
       } else {
-        queue.push({key[q], q});
+        heap.changed(q);
       }
     });
     if ((out.voxels.size() & 1023) == 0)
-      progress("surface sampling", 1.0 - double(remaining) / double(n));
+      progress("surface sampling", 1.0 - double(heap.size()) / double(n));
   }
 
   // Projections are independent: in parallel, each into its own slot.
