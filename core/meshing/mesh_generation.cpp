@@ -7,6 +7,7 @@
 #include <tuple>
 #include <unordered_map>
 
+#include <tbb/parallel_for.h>
 #include <tbb/task_group.h>
 
 #include <CGAL/Delaunay_triangulation_3.h>
@@ -160,19 +161,48 @@ void restore_enclosed(const Delaunay& dt, const std::vector<Delaunay::Cell_handl
     c->info().fate = c->info().fate == -outside_cell ? outside_cell : kept_cell;
 }
 
-// Faces between kept cells and the rest (removed cells or the hull), as sample indices.
-std::vector<Triangle> kept_boundary(const Delaunay& dt) {
-  std::vector<Triangle> faces;
-  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
-    if (c->info().fate != kept_cell) continue;
-    for (int k = 0; k < 4; ++k) {
-      const Delaunay::Cell_handle n = c->neighbor(k);
-      if (!dt.is_infinite(n) && n->info().fate == kept_cell) continue;
-      faces.push_back({c->vertex((k + 1) & 3)->info(), c->vertex((k + 2) & 3)->info(),
-                       c->vertex((k + 3) & 3)->info()});
+std::vector<Delaunay::Cell_handle> finite_cells(const Delaunay& dt) {
+  std::vector<Delaunay::Cell_handle> cells;
+  cells.reserve(dt.number_of_finite_cells());
+  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) cells.push_back(c);
+  return cells;
+}
+
+// Faces between kept cells and the rest (removed cells or the hull), as sample indices, in the
+// order of `cells` (every finite cell; chunks in parallel, then joined in order).
+std::vector<Triangle> kept_boundary(const Delaunay& dt, const std::vector<Delaunay::Cell_handle>& cells) {
+  constexpr std::size_t kChunk = 8192;
+  std::vector<std::vector<Triangle>> chunks((cells.size() + kChunk - 1) / kChunk);
+  tbb::parallel_for(std::size_t(0), chunks.size(), [&](std::size_t n) {
+    for (std::size_t i = n * kChunk; i < std::min(cells.size(), (n + 1) * kChunk); ++i) {
+      const Delaunay::Cell_handle c = cells[i];
+      if (c->info().fate != kept_cell) continue;
+      for (int k = 0; k < 4; ++k) {
+        const Delaunay::Cell_handle nb = c->neighbor(k);
+        if (!dt.is_infinite(nb) && nb->info().fate == kept_cell) continue;
+        chunks[n].push_back({c->vertex((k + 1) & 3)->info(), c->vertex((k + 2) & 3)->info(),
+                             c->vertex((k + 3) & 3)->info()});
+      }
     }
-  }
+  });
+  std::vector<Triangle> faces;
+  for (const auto& chunk : chunks) faces.insert(faces.end(), chunk.begin(), chunk.end());
   return faces;
+}
+
+// Rules 1 and 2 alone, for cells not tested yet (in parallel: each writes only its own info).
+void test_cells(const std::vector<Delaunay::Cell_handle>& cells, const OccupancyFunction& occupancy,
+                const MeshGenerationOptions& options) {
+  tbb::parallel_for(std::size_t(0), cells.size(), [&](std::size_t i) {
+    const Delaunay::Cell_handle c = cells[i];
+    CellInfo& info = c->info();
+    info.test = CellTest::inside;
+    for (int k = 0; k < 4; ++k)
+      if (c->vertex(k)->info() < 0) info.test = CellTest::pole;
+    if (info.test == CellTest::inside && options.remove_outside_tets &&
+        centroid_outside(c, occupancy, options))
+      info.test = CellTest::outside;
+  });
 }
 
 // Whether the boundary of the kept cells pinches at v: its link there, the far edges of the
@@ -541,24 +571,27 @@ MeshGenerationResult DelaunayMesher::mesh() {
     progress(pass == 0 ? "pole removal" : "pinch removal", 0.7);
     out.delaunay_tets = out.removed_by_poles = 0;
     std::vector<Delaunay::Cell_handle> outside, changed;
-    for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
-      ++out.delaunay_tets;
+    const auto settle_fate = [&](Delaunay::Cell_handle c) {
       CellInfo& info = c->info();
-      if (info.test == CellTest::untested) {
-        info.test = CellTest::inside;
-        for (int k = 0; k < 4; ++k)
-          if (c->vertex(k)->info() < 0) info.test = CellTest::pole;
-        if (info.test == CellTest::inside && options.remove_outside_tets &&
-            centroid_outside(c, s.occupancy, options))
-          info.test = CellTest::outside;
-      }
       info.fate = info.test == CellTest::pole      ? pole_cell
                   : info.test == CellTest::outside ? outside_cell
                                                    : kept_cell;
       if (info.fate == pole_cell) ++out.removed_by_poles;
       if (info.fate == outside_cell) outside.push_back(c);
       else if (info.fate != info.settled) changed.push_back(c);
+    };
+    // Cells not tested yet (all of them in the first mesh, a few new ones later) are tested
+    // together, in parallel. The first pass also lists every cell, for its boundary.
+    std::vector<Delaunay::Cell_handle> untested, cells;
+    if (pass == 0) cells.reserve(dt.number_of_finite_cells());
+    for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
+      ++out.delaunay_tets;
+      if (pass == 0) cells.push_back(c);
+      if (c->info().test == CellTest::untested) untested.push_back(c);
+      else settle_fate(c);
     }
+    test_cells(untested, s.occupancy, options);
+    for (const Delaunay::Cell_handle c : untested) settle_fate(c);
     if (options.remove_outside_tets)
       for (const Vec3& p : options.outside_points) {
         const Delaunay::Cell_handle c = dt.locate(to_point(p));
@@ -585,7 +618,7 @@ MeshGenerationResult DelaunayMesher::mesh() {
     // vertex pinched before was removed.
     std::vector<std::int32_t> pinched;
     if (pass == 0) {
-      pinched = pinched_vertices(std::size_t(nb + ni), kept_boundary(dt));
+      pinched = pinched_vertices(std::size_t(nb + ni), kept_boundary(dt, cells));
     } else {
       std::sort(retest.begin(), retest.end(),
                 [](auto a, auto b) { return a->info() < b->info(); });
@@ -600,7 +633,7 @@ MeshGenerationResult DelaunayMesher::mesh() {
       // pinch, its samples go too and the passes go on.
       out.repair.flat_removed = peel_flat_boundary_cells(dt, points);
       if (out.repair.flat_removed > 0)
-        pinched = pinched_vertices(std::size_t(nb + ni), kept_boundary(dt));
+        pinched = pinched_vertices(std::size_t(nb + ni), kept_boundary(dt, cells));
     }
     if (pinched.empty()) {
       pinch_free = true;
