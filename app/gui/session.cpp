@@ -32,7 +32,8 @@ namespace {
 // image is read again (which makes every stage stale).
 void reread_if_frame_changed(JobContext& ctx, const Parameters& p) {
   const Image* image = ctx.image.get();
-  if (!image || !image->nifti || image->frame == frame_name(frame_in_use(*image->nifti, p.nifti_frame)))
+  if (!image || !image->nifti ||
+      image->frame == frame_name(frame_in_use(*image->nifti, p.nifti_frame)))
     return;
   ctx.progress("reading " + image->source, 0.0);
   auto again = std::make_shared<const Image>(read_image(image->source, image_read_options(p)));
@@ -203,7 +204,8 @@ bool Session::poll(double now_s) {
         break;
     }
     if (new_image && scene_->image)
-      for (const std::string& warning : scene_->image->warnings) message(false, "warning: " + warning);
+      for (const std::string& warning : scene_->image->warnings)
+        message(false, "warning: " + warning);
     // A grey image: show the iso value the runs default to (with_default_iso), to adjust.
     if (new_image && scene_ && scene_->image && !scene_->image->integer_valued && !edited.iso) {
       edited = with_default_iso(edited, scene_->image.get());

@@ -8,10 +8,10 @@
 namespace cvt {
 namespace {
 
-// "2 aligned, offset 90 -126 -72 mm".
+// "code 2 aligned, RAS offset 90 -126 -72 mm".
 std::string describe(const NiftiTransform& t) {
-  static constexpr const char* kCodeNames[] = {"unknown", "scanner", "aligned", "Talairach",
-                                               "MNI",     "template"};
+  static constexpr const char* kCodeNames[] = {"unknown",   "scanner", "aligned",
+                                               "Talairach", "MNI",     "template"};
   const char* name = t.code >= 0 && t.code <= 5 ? kCodeNames[t.code] : "non-standard";
   char text[160];
   std::snprintf(text, sizeof text, "code %d %s, RAS offset %g %g %g mm", t.code, name,

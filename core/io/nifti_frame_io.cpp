@@ -101,10 +101,12 @@ void place_in_nifti_frame(Image& image, const std::string& path, NiftiFrame aske
     return;
   const Grid grid = grid_of(chosen, dims);
   const double off_mm = largest_corner_distance_mm(grid_index_to_ras(grid), chosen, dims);
-  if (off_mm > kDisagreementVoxels * voxel_mm)
-    image.warnings.push_back(path + ": its " + std::string(frame_name(used)) +
-                             " is sheared, which cvtmesh's grids cannot follow; using its nearest "
-                             "rotation, up to " + mm_text(off_mm) + " mm away from it");
+  if (off_mm > kDisagreementVoxels * voxel_mm) {
+    const std::string name(frame_name(used));
+    image.warnings.push_back(path + ": its " + name + " is sheared, which cvtmesh's grids " +
+                             "cannot follow; using its nearest rotation, up to " + mm_text(off_mm) +
+                             " mm away from it");
+  }
   image.voxels.grid = grid;
 }
 

@@ -14,8 +14,8 @@ nlohmann::json transform_json(const NiftiTransform& t) {
   if (t.set()) {
     matrix = nlohmann::json::array();
     for (int r = 0; r < 4; ++r)
-      matrix.push_back({t.index_to_ras[4 * r], t.index_to_ras[4 * r + 1],
-                        t.index_to_ras[4 * r + 2], t.index_to_ras[4 * r + 3]});
+      matrix.push_back({t.index_to_ras[4 * r], t.index_to_ras[4 * r + 1], t.index_to_ras[4 * r + 2],
+                        t.index_to_ras[4 * r + 3]});
   }
   return {{"code", t.code}, {"matrix", matrix}};
 }
