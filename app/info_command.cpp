@@ -1,4 +1,5 @@
 // `cvtmesh info IMAGE [--json]`: geometry, value range and label histogram of an image.
+#include <array>
 #include <cmath>
 #include <iomanip>
 #include <iostream>
