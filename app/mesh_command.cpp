@@ -107,7 +107,10 @@ void run(const MeshArgs& args) {
   Pipeline pipe;
   pipe.set_parameters(parameters);
   pipe.set_evaluate_fidelity(args.evaluate);
-  pipe.set_image(std::make_shared<Image>(read_image(args.image)), Pipeline::Run::once);
+  auto image = std::make_shared<Image>(read_image(args.image, image_read_options(parameters)));
+  print_image_warnings(*image);
+  const nlohmann::json image_summary = image_json(*image);  // the pipeline frees the image
+  pipe.set_image(std::move(image), Pipeline::Run::once);
   pipe.run_all(progress);
 
   const TetMesh& mesh = *pipe.final_mesh();
@@ -121,7 +124,9 @@ void run(const MeshArgs& args) {
     write_mesh_with_quality(mesh, args.output);
     written = mesh_files(args.output);
     if (!args.report.empty()) {
-      write_file_atomically(args.report, run_report(pipe).dump(2) + "\n");
+      nlohmann::json report = run_report(pipe);
+      report["image"] = image_summary;
+      write_file_atomically(args.report, report.dump(2) + "\n");
       written.push_back(args.report);
     }
     if (!args.save_preset.empty()) {

@@ -54,7 +54,7 @@ ParameterOptions::ParameterOptions(CLI::App* cmd, Scope scope) {
             if constexpr (std::is_same_v<std::decay_t<decltype(out)>, T>) out = value;
           });
         };
-      } else if constexpr (std::is_same_v<T, OptimizeMode> || std::is_same_v<T, bool>) {
+      } else if constexpr (is_word_switch_v<T> || std::is_same_v<T, bool>) {
         if (std::is_same_v<T, bool> && spec.words[0].empty()) {  // true / false
           opt = cmd->add_option(name, member, help);
         } else {

@@ -63,8 +63,13 @@ void run(const QualityArgs& args) {
   const QualityReport q = compute_quality(mesh);
   std::unique_ptr<FidelityReport> f;
   if (!args.image.empty()) {
-    const PreprocessOptions pre = preprocess_options(args.object->resolve());
-    const Mask object = fidelity_object(read_image(args.image), pre.selection, pre.cleanup);
+    const Parameters parameters = args.object->resolve();
+    const PreprocessOptions pre = preprocess_options(parameters);
+    const Mask object = [&] {  // the image is freed once its object is taken
+      const Image image = read_image(args.image, image_read_options(parameters));
+      print_image_warnings(image);
+      return fidelity_object(image, pre.selection, pre.cleanup);
+    }();
     f = std::make_unique<FidelityReport>(compute_fidelity(mesh, object));
   }
   if (args.json) {

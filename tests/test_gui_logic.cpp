@@ -8,6 +8,7 @@
 #include <sys/syscall.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <chrono>
@@ -443,6 +444,46 @@ TEST(Session, GreyImagesGetAnIsoValue) {
   EXPECT_DOUBLE_EQ(*s.edited.iso, 100.0);
   EXPECT_FALSE(s.edits_pending());  // the runs used the same default
   ASSERT_NE(s.scene()->surface_samples, nullptr);
+}
+
+// A NIfTI whose sform is 40 mm (RAS x) from its qform: one warning among the messages, the
+// image placed in the sform, and read again in the qform when the panel asks for that.
+TEST(Session, WarnsOfDisagreeingNiftiTransformsAndReadsTheFrameAsked) {
+  const Phantom p = torus_phantom({0, 0, 0}, 9.0, 3.5);
+  const std::string file = (temp_dir("frames") / "frames.nii").string();
+  write_image(rasterize(p, grid_around(p, {0.8, 0.8, 1.0}, rotation_matrix({0, 0, 1}, 0))), file);
+  {  // ITK writes equal transforms: move the sform's x offset (srow_x[3], at byte 292)
+    std::fstream f(file, std::ios::in | std::ios::out | std::ios::binary);
+    float x = 0;
+    f.seekg(292);
+    f.read(reinterpret_cast<char*>(&x), sizeof x);
+    x += 40;
+    f.seekp(292);
+    f.write(reinterpret_cast<const char*>(&x), sizeof x);
+  }
+  Session s;
+  s.open_image(file);
+  s.run_through(Stage::preprocess);
+  settle(s);
+  ASSERT_EQ(s.failed_jobs, 0u) << s.first_error;
+  const auto warnings = [&] {
+    return std::count_if(s.messages.begin(), s.messages.end(), [](const Message& m) {
+      return !m.error && m.text.rfind("warning: ", 0) == 0 && m.text.find("sform") != m.text.npos;
+    });
+  };
+  EXPECT_EQ(warnings(), 1);
+  ASSERT_EQ(s.scene()->image->frame, "sform");
+  const double sform_x = s.scene()->image->grid().origin.x;
+
+  s.edited.nifti_frame = NiftiFrame::qform;
+  EXPECT_TRUE(s.edits_pending());
+  s.rerun_stale();
+  settle(s);
+  EXPECT_EQ(s.failed_jobs, 0u) << s.first_error;
+  EXPECT_EQ(s.scene()->image->frame, "qform");
+  EXPECT_NEAR(s.scene()->image->grid().origin.x - sform_x, 40.0, 1e-3);  // LPS x is −RAS x
+  EXPECT_FALSE(s.edits_pending());
+  EXPECT_EQ(warnings(), 2);  // said again for the image read again
 }
 
 TEST(Session, StepsStageSixPassByPassWithBeforeAndAfter) {

@@ -201,6 +201,35 @@ TEST(ImageIO, RoundTripItkFormats) {
     EXPECT_EQ(entry.path().filename().string().find(".cvtmesh-tmp"), std::string::npos);
 }
 
+// What cvtmesh (ITK) writes has equal qform and sform: either frame reads ITK's geometry, bit
+// for bit, without a warning. Other formats have no NIfTI frame.
+TEST(ImageIO, NiftiFramesOfAnImageWeWrote) {
+  TempDir dir;
+  const Image im = make_image("uint8", /*rotated=*/true);
+  for (std::string ext : {"nii", "nii.gz"}) {
+    SCOPED_TRACE(ext);
+    const std::string path = dir / ("im." + ext);
+    cvt::write_image(im, path);
+    cvt::ReadOptions qform;
+    qform.nifti_frame = cvt::NiftiFrame::qform;
+    const Image in_qform = cvt::read_image(path, qform), in_sform = cvt::read_image(path);
+    EXPECT_TRUE(in_qform.grid().same_geometry(in_sform.grid(), 0.0));
+    expect_same(im, in_sform);
+    for (const Image* back : {&in_qform, &in_sform}) {
+      ASSERT_TRUE(back->nifti.has_value());
+      EXPECT_TRUE(back->nifti->qform.set() && back->nifti->sform.set());
+      EXPECT_TRUE(back->warnings.empty());
+    }
+    EXPECT_EQ(in_qform.frame, "qform");
+    EXPECT_EQ(in_sform.frame, "sform");
+  }
+  const std::string nrrd = dir / "im.nrrd";
+  cvt::write_image(im, nrrd);
+  const Image back = cvt::read_image(nrrd);
+  EXPECT_FALSE(back.nifti.has_value());
+  EXPECT_EQ(back.frame, "");
+}
+
 TEST(ImageIO, RoundTripInr) {
   TempDir dir;
   for (std::string ext : {"inr", "inr.gz"}) {

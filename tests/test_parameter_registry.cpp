@@ -57,8 +57,8 @@ Changed changed_value(const ParameterSpec& spec) {
     if constexpr (std::is_same_v<T, bool>) {
       v = !v;
       c.cli_text = spec.words[0].empty() ? (v ? "true" : "false") : std::string(spec.words[v]);
-    } else if constexpr (std::is_same_v<T, OptimizeMode>) {
-      v = v == OptimizeMode::none ? OptimizeMode::standard : OptimizeMode::none;
+    } else if constexpr (cvt::is_word_switch_v<T>) {
+      v = T(1 - int(v));
       c.cli_text = std::string(spec.words[int(v)]);
     } else if constexpr (std::is_integral_v<T>) {
       v = T(std::llround(inside(double(v)))) == v ? T(v + 1) : T(std::llround(inside(double(v))));

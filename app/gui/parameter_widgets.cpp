@@ -40,7 +40,7 @@ bool edit_parameter(const ParameterSpec& spec, Parameters& p) {
                                       &spec.slider[1], "%.3f");
       else
         changed = ImGui::InputDouble(label.c_str(), &v, 0.0, 0.0, "%.4g");
-    } else if constexpr (std::is_same_v<T, OptimizeMode>) {
+    } else if constexpr (is_word_switch_v<T>) {
       int index = int(v);
       const std::string items = std::string(spec.words[0]) + '\0' + std::string(spec.words[1]) + '\0';
       if (ImGui::Combo(label.c_str(), &index, items.c_str())) v = T(index), changed = true;

@@ -18,15 +18,28 @@ void Session::message(bool error, std::string text) {
 }
 
 void Session::open_image(const std::string& path) {
-  worker_.submit("open " + path, [path](JobContext& ctx) {
+  worker_.submit("open " + path, [path, options = image_read_options(edited)](JobContext& ctx) {
     ctx.progress("reading " + path, 0.0);
-    auto image = std::make_shared<const Image>(read_image(path));
+    auto image = std::make_shared<const Image>(read_image(path, options));
     ctx.pipeline.set_image(image);
     ctx.image = std::move(image);
   });
 }
 
 namespace {
+
+// The frame a NIfTI image is read in is a parameter: when the panel asks for another, the
+// image is read again (which makes every stage stale).
+void reread_if_frame_changed(JobContext& ctx, const Parameters& p) {
+  const Image* image = ctx.image.get();
+  if (!image || !image->nifti ||
+      image->frame == frame_name(frame_in_use(*image->nifti, p.nifti_frame)))
+    return;
+  ctx.progress("reading " + image->source, 0.0);
+  auto again = std::make_shared<const Image>(read_image(image->source, image_read_options(p)));
+  ctx.pipeline.set_image(again);
+  ctx.image = std::move(again);
+}
 
 // A grey image needs an iso value before stage 1 can run: without one, the middle of its value
 // range (the UI shows the same default in the panel once the image is open).
@@ -44,6 +57,7 @@ std::function<void(JobContext&)> Session::applying(std::function<void(JobContext
   return [parameters = edited, then = std::move(then)](JobContext& ctx) {
     ctx.pipeline.set_pass_statistics(true);  // the panel plots every pass (~0.1 s a pass, liver)
     ctx.pipeline.set_evaluate_fidelity(true);  // the panel shows it
+    reread_if_frame_changed(ctx, parameters);
     ctx.pipeline.set_parameters(with_default_iso(parameters, ctx.image.get()));
     then(ctx);
   };
@@ -189,6 +203,9 @@ bool Session::poll(double now_s) {
         message(true, outcome->error);
         break;
     }
+    if (new_image && scene_->image)
+      for (const std::string& warning : scene_->image->warnings)
+        message(false, "warning: " + warning);
     // A grey image: show the iso value the runs default to (with_default_iso), to adjust.
     if (new_image && scene_ && scene_->image && !scene_->image->integer_valued && !edited.iso) {
       edited = with_default_iso(edited, scene_->image.get());

@@ -3,8 +3,11 @@
 
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <string>
+#include <vector>
 
+#include "base/nifti_frames.h"
 #include "base/volume.h"
 
 namespace cvt {
@@ -14,6 +17,11 @@ struct Image {
   bool integer_valued = true;  // true for label images (any integer pixel type)
   std::string pixel_type;      // e.g. "uint8", "int16", "float32" (as stored on disk)
   std::string source;          // the path it was read from
+  // NIfTI only: both of the header's transforms, and the one that placed the image ("sform",
+  // "qform" or "scaling"; empty for other formats).
+  std::optional<NiftiTransforms> nifti;
+  std::string frame;
+  std::vector<std::string> warnings;  // one line each, for the user (how it was read)
 
   const Grid& grid() const { return voxels.grid; }
 };

@@ -9,12 +9,16 @@
 #include <string>
 
 #include "base/image.h"
+#include "base/nifti_frames.h"
 
 namespace cvt {
 
 struct ReadOptions {
   Vec3 slice_spacing_mm{1, 1, 1};  // spacing for a folder of 2D slices (no geometry on disk)
   std::size_t max_bytes = 0;       // refuse images needing more memory than this; 0 = available RAM
+  // NIfTI: the header transform that places the image when its code is non-zero (else the
+  // other one, else the voxel spacing alone). The sform by default, as nibabel and FSL read it.
+  NiftiFrame nifti_frame = NiftiFrame::sform;
 };
 
 Image read_image(const std::string& path, const ReadOptions& options = {});

@@ -22,5 +22,8 @@ void convert_to_float(const void* src, const std::string& src_type, std::size_t 
 std::string checked_write_pixel_type(const Image& image, const std::string& path);
 // Throws InputError when the file at `path` holds fewer than `expected` bytes.
 void require_complete_file(const std::string& path, std::size_t expected);
+// For a NIfTI `image` as ITK read it from `path`: records both header transforms, places the
+// image in the frame `asked` chooses (nifti_frame_io.cpp) and warns when the two disagree.
+void place_in_nifti_frame(Image& image, const std::string& path, NiftiFrame asked);
 
 }  // namespace cvt::io_internal

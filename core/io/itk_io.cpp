@@ -588,7 +588,7 @@ Image read_image_itk(const std::string& path, const ReadOptions& options) {
   if (ext == "nii" || ext == "nii.gz") require_complete_nifti(path, data_bytes);
   if (ext == "mha" || ext == "mhd") require_complete_metaimage(path, data_bytes);
   if (ext == "nrrd" || ext == "nhdr") require_complete_nrrd(path, data_bytes, voxels);
-  return read_dispatch(*io, path, [&](auto pixel) {
+  Image image = read_dispatch(*io, path, [&](auto pixel) {
     using TPixel = decltype(pixel);
     return read_as<TPixel>(path, *io, voxels, options, [&] {
       auto reader = itk::ImageFileReader<itk::Image<TPixel, 3>>::New();
@@ -598,6 +598,8 @@ Image read_image_itk(const std::string& path, const ReadOptions& options) {
       return typename itk::Image<TPixel, 3>::Pointer(reader->GetOutput());
     });
   });
+  if (ext == "nii" || ext == "nii.gz") place_in_nifti_frame(image, path, options.nifti_frame);
+  return image;
 }
 
 Image read_dicom_series_itk(const std::string& folder, const ReadOptions& options) {

@@ -27,6 +27,14 @@ using O = OptimizationOptions;
 
 std::vector<ParameterSpec> make_registry() {
   return {
+      // Reading the image. The sform by default, as nibabel and FSL read NIfTI files: ITK
+      // prefers the qform, and an atlas whose two transforms disagree then lands far from
+      // where those tools (and the user) see it.
+      {.key = "nifti_frame", .cli = "nifti-frame", .label = "NIfTI frame", .stage = S::preprocess,
+       .tooltip = "NIfTI images: the header transform that places the image, sform (as nibabel "
+                  "and FSL read it) or qform. Either gives way to the other when its code is 0, "
+                  "and to the voxel spacing alone when both codes are.",
+       .words = {"qform", "sform"}, .defines_object = true, .ref = top<&P::nifti_frame>},
       // Stage 1: the object.
       {.key = "labels", .cli = "labels", .label = "labels", .stage = S::preprocess,
        .tooltip = "Labels that make the object: all (every non-zero label) or a list L1,L2,...",
@@ -257,8 +265,8 @@ void check(const ParameterSpec& spec, const Parameters& p) {
       if (!in_range(double(v))) require(false, spec, range_text(spec));
     } else if constexpr (std::is_same_v<T, std::optional<double>>) {
       require(!v || std::isfinite(*v), spec, "must be a finite number");
-    } else if constexpr (std::is_same_v<T, OptimizeMode>) {
-      require(v == OptimizeMode::none || v == OptimizeMode::standard, spec,
+    } else if constexpr (is_word_switch_v<T>) {
+      require(int(v) == 0 || int(v) == 1, spec,
               "must be \"" + std::string(spec.words[0]) + "\" or \"" +
                   std::string(spec.words[1]) + "\"");
     }

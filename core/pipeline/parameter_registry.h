@@ -9,6 +9,7 @@
 #include <optional>
 #include <string>
 #include <string_view>
+#include <type_traits>
 #include <utility>
 #include <variant>
 #include <vector>
@@ -21,7 +22,12 @@ namespace cvt {
 // The member a row describes; its type is the parameter's type.
 using ParameterRef = std::variant<bool*, int*, std::int64_t*, std::uint64_t*, double*,
                                   std::optional<double>*, std::vector<std::int64_t>*,
-                                  OptimizeMode*>;
+                                  OptimizeMode*, NiftiFrame*>;
+
+// The switches named by two words (ParameterSpec::words, in enum order).
+template <class T>
+inline constexpr bool is_word_switch_v =
+    std::is_same_v<T, OptimizeMode> || std::is_same_v<T, NiftiFrame>;
 
 struct ParameterSpec {
   std::string_view key;      // preset key (within `section`'s object when there is one)
@@ -38,7 +44,8 @@ struct ParameterSpec {
   double hi = std::numeric_limits<double>::infinity();
   bool lo_open = false, hi_open = false;
   std::string_view zero_means;  // "auto", "all cores" ...: 0 is not a plain value
-  // OptimizeMode: the names of its values (in enum order) in presets, the CLI and the viewer.
+  // OptimizeMode, NiftiFrame: the names of its values (in enum order) in presets, the CLI and
+  // the viewer.
   // bool: the CLI's words for false and true, when not "false" and "true" (--inside below).
   std::array<std::string_view, 2> words{};
   bool defines_object = false;    // selection and clean-up of the object (`quality --image`)

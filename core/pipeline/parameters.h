@@ -9,6 +9,7 @@
 #include <optional>
 #include <vector>
 
+#include "base/nifti_frames.h"
 #include "optimize/optimization_options.h"
 
 namespace cvt {
@@ -17,6 +18,8 @@ namespace cvt {
 enum class OptimizeMode { none, standard };
 
 struct Parameters {
+  // Reading the image (its geometry, so everything from stage 1 on).
+  NiftiFrame nifti_frame = NiftiFrame::sform;
   // Stage 1: object selection and preprocessing.
   std::vector<std::int64_t> labels;  // empty = all non-zero
   std::optional<double> iso;         // grey images: threshold (replaces labels)

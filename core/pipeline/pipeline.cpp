@@ -8,6 +8,12 @@
 
 namespace cvt {
 
+ReadOptions image_read_options(const Parameters& p) {
+  ReadOptions o;
+  o.nifti_frame = p.nifti_frame;
+  return o;
+}
+
 PreprocessOptions preprocess_options(const Parameters& p) {
   PreprocessOptions o;
   o.selection.labels = p.labels;

@@ -14,6 +14,7 @@
 #include "base/progress.h"
 #include "evaluate/fidelity.h"
 #include "evaluate/quality.h"
+#include "io/image_io.h"
 #include "meshing/fidelity_refinement.h"
 #include "meshing/mesh_generation.h"
 #include "optimize/mesh_optimization.h"
@@ -26,7 +27,8 @@
 
 namespace cvt {
 
-// Options of each stage from the parameters.
+// How to read the image (its NIfTI frame), and the options of each stage, from the parameters.
+ReadOptions image_read_options(const Parameters& p);
 PreprocessOptions preprocess_options(const Parameters& p);
 SurfaceSamplingOptions surface_options(const Parameters& p);
 CvtOptions cvt_options(const Parameters& p, double default_spacing_mm);

@@ -47,12 +47,12 @@ void read_value(const json& j, const ParameterSpec& spec, T& out) {
       read_value(j, spec, v);
       out = v;
     }
-  } else if constexpr (std::is_same_v<T, OptimizeMode>) {
+  } else if constexpr (is_word_switch_v<T>) {
     const auto& words = spec.words;
     if (!j.is_string() || (j.get<std::string>() != words[0] && j.get<std::string>() != words[1]))
       throw InputError(key + ": must be \"" + std::string(words[0]) + "\" or \"" +
                        std::string(words[1]) + "\"");
-    out = j.get<std::string>() == words[0] ? OptimizeMode::none : OptimizeMode::standard;
+    out = T(j.get<std::string>() == words[1]);
   } else {  // label list: "all" or an array of integers
     if (j.is_string() && j.get<std::string>() == "all") {
       out.clear();
@@ -81,7 +81,7 @@ json to_json(const Parameters& p) {
         slot = value ? json(*value) : json(nullptr);
       else if constexpr (std::is_same_v<T, std::vector<std::int64_t>>)
         slot = value.empty() ? json("all") : json(value);
-      else if constexpr (std::is_same_v<T, OptimizeMode>)
+      else if constexpr (is_word_switch_v<T>)
         slot = std::string(spec.words[int(value)]);
       else
         slot = value;

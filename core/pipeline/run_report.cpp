@@ -7,6 +7,36 @@
 #include "pipeline/preset.h"
 
 namespace cvt {
+namespace {
+
+nlohmann::json transform_json(const NiftiTransform& t) {
+  nlohmann::json matrix = nullptr;
+  if (t.set()) {
+    matrix = nlohmann::json::array();
+    for (int r = 0; r < 4; ++r)
+      matrix.push_back({t.index_to_ras[4 * r], t.index_to_ras[4 * r + 1], t.index_to_ras[4 * r + 2],
+                        t.index_to_ras[4 * r + 3]});
+  }
+  return {{"code", t.code}, {"matrix", matrix}};
+}
+
+}  // namespace
+
+nlohmann::json image_json(const Image& image) {
+  const Grid& g = image.grid();
+  nlohmann::json j;
+  j["file"] = image.source;
+  j["dims"] = {g.dims[0], g.dims[1], g.dims[2]};
+  j["spacing"] = {g.spacing.x, g.spacing.y, g.spacing.z};
+  j["origin"] = {g.origin.x, g.origin.y, g.origin.z};
+  j["direction"] = g.direction;
+  if (image.nifti)
+    j["nifti"] = {{"frame", image.frame},
+                  {"qform", transform_json(image.nifti->qform)},
+                  {"sform", transform_json(image.nifti->sform)}};
+  j["warnings"] = image.warnings;
+  return j;
+}
 
 nlohmann::json run_report(const Pipeline& pipe) {
   using nlohmann::json;

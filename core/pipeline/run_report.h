@@ -9,5 +9,9 @@
 namespace cvt {
 
 nlohmann::json run_report(const Pipeline& pipeline);
+// The image's file and geometry (dims, spacing, origin, direction, LPS) and, for NIfTI, the
+// frame used and both header transforms ({code, matrix}: index → RAS mm, 4×4, null when the
+// code is 0) with the warnings of reading it. `cvtmesh info --json` and the run report's "image".
+nlohmann::json image_json(const Image& image);
 
 }  // namespace cvt
