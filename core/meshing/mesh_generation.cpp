@@ -8,6 +8,7 @@
 #include <unordered_map>
 
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_sort.h>
 #include <tbb/task_group.h>
 
 #include <CGAL/Delaunay_triangulation_3.h>
@@ -651,32 +652,34 @@ MeshGenerationResult DelaunayMesher::mesh() {
   // in the last pass. So it is skipped, and rule 4's groups come from the cells' adjacency,
   // not a face sort.
   const bool peel = options.repair_manifold && !pinch_free;
-  std::int32_t groups = 0;
-  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
-    if (c->info().fate != kept_cell) continue;
-    c->info().component = -1;
-  }
-  std::vector<Delaunay::Cell_handle> queue;
-  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end() && !peel; ++c) {
-    if (c->info().fate != kept_cell || c->info().component >= 0) continue;
-    c->info().component = groups;
-    queue.assign(1, c);
-    while (!queue.empty()) {
-      const Delaunay::Cell_handle q = queue.back();
-      queue.pop_back();
-      for (int k = 0; k < 4; ++k) {
-        const Delaunay::Cell_handle n = q->neighbor(k);
-        if (!dt.is_infinite(n) && n->info().fate == kept_cell) {
-          if (n->info().component < 0) {
+  // Rule 4's groups: the kept cells' face-connected components, numbered in cell order. The
+  // walk runs on one core while the other lists and sorts the kept tets.
+  const auto number_groups = [&] {
+    std::int32_t groups = 0;
+    for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c)
+      if (c->info().fate == kept_cell) c->info().component = -1;
+    std::vector<Delaunay::Cell_handle> queue;
+    for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end() && !peel; ++c) {
+      if (c->info().fate != kept_cell || c->info().component >= 0) continue;
+      c->info().component = groups;
+      queue.assign(1, c);
+      while (!queue.empty()) {
+        const Delaunay::Cell_handle q = queue.back();
+        queue.pop_back();
+        for (int k = 0; k < 4; ++k) {
+          const Delaunay::Cell_handle n = q->neighbor(k);
+          if (!dt.is_infinite(n) && n->info().fate == kept_cell && n->info().component < 0) {
             n->info().component = groups;
             queue.push_back(n);
           }
         }
       }
+      ++groups;
     }
-    ++groups;
-  }
-  std::vector<std::pair<Tet, std::int32_t>> kept;  // indices into B ∪ I, and the group
+  };
+  tbb::task_group grouping;
+  grouping.run(number_groups);
+  std::vector<std::pair<Tet, Delaunay::Cell_handle>> kept;  // indices into B ∪ I
   for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
     if (c->info().fate == pole_cell) continue;
     std::array<Vec3, 4> corners;
@@ -691,15 +694,21 @@ MeshGenerationResult DelaunayMesher::mesh() {
     } else if (c->info().fate == flat_cell) {
       out.removed_by_repair.push_back(corners);
     } else {
-      kept.push_back({canonical(t), c->info().component});
+      kept.push_back({canonical(t), c});
     }
   }
   // CGAL's vertex removal orders its work by handle address, which varies from run to run;
-  // a canonical order keeps the repair step (order-dependent) deterministic.
-  std::sort(kept.begin(), kept.end());
+  // a canonical order keeps the repair step (order-dependent) deterministic. No two cells
+  // have the same corners, so the order is total.
+  tbb::parallel_sort(kept.begin(), kept.end(),
+                     [](const auto& a, const auto& b) { return a.first < b.first; });
+  grouping.wait();
   std::vector<Tet> tets(kept.size());
   std::vector<std::int32_t> group(kept.size());
-  for (std::size_t t = 0; t < kept.size(); ++t) std::tie(tets[t], group[t]) = kept[t];
+  for (std::size_t t = 0; t < kept.size(); ++t) {
+    tets[t] = kept[t].first;
+    group[t] = kept[t].second->info().component;
+  }
   kept = {};
 
   progress("manifold repair", 0.9);
@@ -731,7 +740,7 @@ MeshGenerationResult DelaunayMesher::mesh() {
   out.mesh.tets.reserve(tets.size());
   for (const Tet& t : tets)
     out.mesh.tets.push_back(canonical({new_index[t[0]], new_index[t[1]], new_index[t[2]], new_index[t[3]]}));
-  std::sort(out.mesh.tets.begin(), out.mesh.tets.end());
+  tbb::parallel_sort(out.mesh.tets.begin(), out.mesh.tets.end());  // distinct tets: a total order
   progress("mesh", 1.0);
   return out;
 }
