@@ -3,6 +3,7 @@
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
+#include <atomic>
 #include <stdexcept>
 #include <string>
 
@@ -10,19 +11,21 @@ namespace cvt {
 
 std::vector<std::int64_t> face_neighbours(std::size_t num_vertices, const std::vector<Tet>& tets) {
   const std::size_t num_faces = 4 * tets.size();
+  for (const Tet& t : tets)
+    for (std::int32_t v : t)
+      if (v < 0 || std::size_t(v) >= num_vertices)
+        throw std::invalid_argument("tet vertex " + std::to_string(v) + " out of range");
   // Faces are bucketed by their smallest vertex (a counting sort, linear time); a bucket
   // holds only the few faces around one vertex, so sorting inside buckets is cheap. This is
-  // several times faster than sorting all 4·#tets keyed faces for meshes of ~1M tets.
+  // several times faster than sorting all 4·#tets keyed faces for meshes of ~1M tets. Counts
+  // and entries are placed by all threads at once, so a bucket's entries come in any order
+  // until it is sorted, by key and then face.
   std::vector<std::int64_t> bucket_start(num_vertices + 1, 0);
-  for (const Tet& t : tets) {
-    for (std::int32_t v : t) {
-      if (v < 0 || std::size_t(v) >= num_vertices) {
-        throw std::invalid_argument("tet vertex " + std::to_string(v) +
-                                    " out of range");
-      }
-    }
-    for (const Triangle& f : outward_faces(t)) ++bucket_start[std::min({f[0], f[1], f[2]}) + 1];
-  }
+  tbb::parallel_for(std::size_t(0), tets.size(), [&](std::size_t t) {
+    for (const Triangle& f : outward_faces(tets[t]))
+      std::atomic_ref<std::int64_t>(bucket_start[std::min({f[0], f[1], f[2]}) + 1])
+          .fetch_add(1, std::memory_order_relaxed);
+  });
   for (std::size_t v = 0; v < num_vertices; ++v) bucket_start[v + 1] += bucket_start[v];
 
   // Each entry: the other two vertices of the face (sorted, packed in 64 bits) and its id.
@@ -32,23 +35,27 @@ std::vector<std::int64_t> face_neighbours(std::size_t num_vertices, const std::v
   };
   std::vector<Entry> entries(num_faces);
   std::vector<std::int64_t> fill(bucket_start.begin(), bucket_start.end() - 1);
-  for (std::size_t t = 0; t < tets.size(); ++t) {
+  tbb::parallel_for(std::size_t(0), tets.size(), [&](std::size_t t) {
     const auto faces = outward_faces(tets[t]);
     for (int i = 0; i < 4; ++i) {
       std::array<std::int32_t, 3> f = faces[i];
       std::sort(f.begin(), f.end());
       const std::uint64_t key = (std::uint64_t(std::uint32_t(f[1])) << 32) | std::uint32_t(f[2]);
-      entries[fill[f[0]]++] = {key, std::int64_t(4 * t + i)};
+      const std::int64_t at =
+          std::atomic_ref<std::int64_t>(fill[f[0]]).fetch_add(1, std::memory_order_relaxed);
+      entries[at] = {key, std::int64_t(4 * t + i)};
     }
-  }
+  });
 
   // Faces with the same key in a bucket are the same triangle. Buckets are independent, so
-  // they are sorted in parallel (each one exactly as a serial pass would).
+  // they are sorted in parallel.
   std::vector<std::int64_t> neighbour(num_faces, -1);
   tbb::parallel_for(std::size_t(0), num_vertices, [&](std::size_t v) {
     const auto first = entries.begin() + bucket_start[v],
                last = entries.begin() + bucket_start[v + 1];
-    std::sort(first, last, [](const Entry& a, const Entry& b) { return a.key < b.key; });
+    std::sort(first, last, [](const Entry& a, const Entry& b) {
+      return a.key != b.key ? a.key < b.key : a.face < b.face;
+    });
     for (auto run = first; run != last;) {
       auto end = run + 1;
       while (end != last && end->key == run->key) ++end;
