@@ -583,7 +583,7 @@ MeshGenerationResult DelaunayMesher::mesh() {
     };
     // Cells not tested yet (all of them in the first mesh, a few new ones later) are tested
     // together, in parallel. The first pass also lists every cell, for its boundary.
-    std::vector<Delaunay::Cell_handle> untested, cells;
+    std::vector<Delaunay::Cell_handle> untested, cells;  // cells: pass 0 only
     if (pass == 0) cells.reserve(dt.number_of_finite_cells());
     for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
       ++out.delaunay_tets;
@@ -624,17 +624,17 @@ MeshGenerationResult DelaunayMesher::mesh() {
       std::sort(retest.begin(), retest.end(),
                 [](auto a, auto b) { return a->info() < b->info(); });
       retest.erase(std::unique(retest.begin(), retest.end()), retest.end());
-      std::vector<Delaunay::Cell_handle> cells;
+      std::vector<Delaunay::Cell_handle> around;  // pinched_at's work lists
       std::vector<std::pair<std::int32_t, std::int32_t>> link;
       for (const Delaunay::Vertex_handle v : retest)
-        if (pinched_at(dt, v, cells, link)) pinched.push_back(v->info());
+        if (pinched_at(dt, v, around, link)) pinched.push_back(v->info());
     }
     if (pinched.empty()) {
       // Flat cells are peeled from the boundary once it no longer pinches; if that makes a
       // pinch, its samples go too and the passes go on.
       out.repair.flat_removed = peel_flat_boundary_cells(dt, points);
       if (out.repair.flat_removed > 0)
-        pinched = pinched_vertices(std::size_t(nb + ni), kept_boundary(dt, cells));
+        pinched = pinched_vertices(std::size_t(nb + ni), kept_boundary(dt, finite_cells(dt)));
     }
     if (pinched.empty()) {
       pinch_free = true;
