@@ -44,9 +44,7 @@ std::shared_ptr<const MeshLayers> make_mesh_layers(const TetMesh& mesh,
   m->mesh = mesh;
   m->neighbours = compute_tet_neighbours(m->mesh);
   m->exterior_poles = exterior_poles;
-  for (int k = 0; k < kMeasureCount; ++k) {
-    m->measures[k] = tet_measure(m->mesh, Measure(k));
-  }
+  m->measures = tet_measures(m->mesh);
   const double inf = std::numeric_limits<double>::infinity();
   m->lo = {inf, inf, inf};
   m->hi = {-inf, -inf, -inf};
@@ -62,7 +60,7 @@ std::shared_ptr<const MeshMeasures> make_mesh_measures(const TetMesh& mesh) {
   auto m = std::make_shared<MeshMeasures>();
   m->vertices = mesh.vertices.size();
   m->tets = mesh.tets.size();
-  for (int k = 0; k < kMeasureCount; ++k) m->measures[k] = tet_measure(mesh, Measure(k));
+  m->measures = tet_measures(mesh);
   return m;
 }
 

@@ -42,7 +42,6 @@ struct LloydState {
 };
 
 // Per-tet values of every Measure, in enum order, for colouring and highlighting.
-inline constexpr int kMeasureCount = 6;
 struct MeshLayers {
   TetMesh mesh;              // world mm
   TetNeighbours neighbours;  // for the faces a clip exposes

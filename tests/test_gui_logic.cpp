@@ -426,6 +426,25 @@ TEST(PipelineWorker, PostsTheSitesAfterEachLloydIteration) {
   EXPECT_EQ(done->scene->lloyd->history.size(), 3u);
 }
 
+// The viewer paces its frames while a job runs and wakes up for what it must show at once:
+// the worker tells it when a Lloyd state is posted and when a job ends.
+TEST(PipelineWorker, NotifiesLloydStatesAndFinishedJobs) {
+  PipelineWorker worker(1);
+  std::atomic<int> notified{0};
+  worker.set_notify([&] { ++notified; });
+  worker.submit("steps", [&](JobContext& ctx) {
+    auto image = std::make_shared<const Image>(read_image(torus_file()));
+    ctx.pipeline.set_image(image);
+    ctx.image = image;
+    ctx.pipeline.step_lloyd(3, ctx.progress);  // states posted before iterations 2 and 3
+  });
+  worker.wait_idle();
+  EXPECT_TRUE(worker.has_outcome());
+  EXPECT_EQ(notified.load(), 3);  // two Lloyd states, one finished job
+  ASSERT_TRUE(worker.take_outcome());
+  EXPECT_FALSE(worker.has_outcome());
+}
+
 TEST(Session, GreyImagesGetAnIsoValue) {
   // The torus as grey values 0..200 (float), no iso given anywhere.
   const Phantom p = torus_phantom({0, 0, 0}, 9.0, 3.5);

@@ -379,7 +379,7 @@ TEST(MeshOptimization, Liver) {
       MeshWriteOptions w;
       for (Measure q : {Measure::VOverRmc3, Measure::GradientError, Measure::ConditionNumber,
                         Measure::MinDihedralDeg, Measure::MaxDihedralDeg})
-        w.cell_data.push_back({std::string(measure_key(q)), tet_measure(*m, q)});
+        w.cell_data.push_back({std::string(measure_key(q)), tet_measures(*m)[std::size_t(q)]});
       write_mesh(*m, std::string(out) + name, w);
     }
   }

@@ -143,7 +143,7 @@ TEST(Quality, TableBinsAddUpAndMatchPerTetValues) {
     const MeasureStats& s = rep.shewchuk[i];
     EXPECT_NEAR(s.bins_percent[0] + s.bins_percent[1] + s.bins_percent[2], 100.0, 1e-9);
     EXPECT_EQ(std::accumulate(s.histogram.begin(), s.histogram.end(), std::size_t(0)), rep.tets);
-    const std::vector<double> values = tet_measure(mesh, kShewchukMeasures[i]);
+    const std::vector<double> values = tet_measures(mesh)[std::size_t(kShewchukMeasures[i])];
     const auto edges = table1_bin_edges(kShewchukMeasures[i]);
     const auto low =
         std::count_if(values.begin(), values.end(), [&](double v) { return v < edges[0]; });
@@ -151,7 +151,7 @@ TEST(Quality, TableBinsAddUpAndMatchPerTetValues) {
     EXPECT_NEAR(s.min, *std::min_element(values.begin(), values.end()), 1e-15);
     EXPECT_LE(s.max, regular_tet_value(kShewchukMeasures[i]) + 1e-12);
   }
-  const std::vector<double> min_dih = tet_measure(mesh, Measure::MinDihedralDeg);
+  const std::vector<double> min_dih = tet_measures(mesh)[std::size_t(Measure::MinDihedralDeg)];
   EXPECT_EQ(rep.dihedral.below_20, std::size_t(std::count_if(min_dih.begin(), min_dih.end(),
                                                              [](double a) { return a < 20; })));
   EXPECT_EQ(

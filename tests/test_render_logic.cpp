@@ -114,7 +114,7 @@ TEST(MeshGeometry, SoupsFollowTheClipAndTheHighlight) {
   MeshLayers layers;
   layers.mesh = block_mesh();
   layers.neighbours = compute_tet_neighbours(layers.mesh);
-  for (int k = 0; k < kMeasureCount; ++k) layers.measures[k] = tet_measure(layers.mesh, Measure(k));
+  layers.measures = tet_measures(layers.mesh);
   MeshColoring coloring;
   coloring.measure = Measure::VOverRmc3;
   const MeshSoups whole = build_mesh_soups(layers, nullptr, coloring);
@@ -250,7 +250,7 @@ TEST(QualitySelection, CountsMatchTheReport) {
   const QualityReport q = compute_quality(mesh);
   for (int i = 0; i < 3; ++i) {
     const Measure m = kShewchukMeasures[i];
-    const auto values = tet_measure(mesh, m);
+    const auto values = tet_measures(mesh)[std::size_t(m)];
     for (int b = 0; b < 3; ++b) {
       TetSelection s;
       s.kind = TetSelection::Kind::table1_bin;

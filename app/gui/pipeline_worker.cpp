@@ -164,10 +164,14 @@ void PipelineWorker::run_job(const std::string& name, const Job& job) {
       lloyd_posted = lloyd->history().size();
       update = builder_.lloyd_state(*lloyd);
     }
-    std::lock_guard lock(mutex_);
-    status_.step = step;
-    status_.fraction = fraction;
-    if (update) lloyd_update_ = std::move(update);
+    std::function<void()> notify;
+    {
+      std::lock_guard lock(mutex_);
+      status_.step = step;
+      status_.fraction = fraction;
+      if (update) lloyd_update_ = std::move(update), notify = notify_;
+    }
+    if (notify) notify();
   };
   const auto t0 = std::chrono::steady_clock::now();
   // The run's own thread count wins over the viewer's cap (--threads).
@@ -207,6 +211,17 @@ void PipelineWorker::run_job(const std::string& name, const Job& job) {
   // they would only fail again, so they are dropped.
   if (outcome.status != JobOutcome::Status::ok) queue_.clear();
   outcomes_.push_back(std::move(outcome));
+  if (notify_) notify_();
+}
+
+bool PipelineWorker::has_outcome() const {
+  std::lock_guard lock(mutex_);
+  return !outcomes_.empty();
+}
+
+void PipelineWorker::set_notify(std::function<void()> notify) {
+  std::lock_guard lock(mutex_);
+  notify_ = std::move(notify);
 }
 
 }  // namespace cvt::gui

@@ -69,6 +69,11 @@ class PipelineWorker {
   std::shared_ptr<const render::LloydState> take_lloyd_update();
   // Blocks until no job runs or waits (tests and scripted runs).
   void wait_idle();
+  // Whether a finished job waits to be taken.
+  bool has_outcome() const;
+  // Called (on the worker thread) when a job ends or a Lloyd state is posted, so the UI can
+  // wake up for it: GLFW's glfwPostEmptyEvent, which may be called from any thread.
+  void set_notify(std::function<void()> notify);
 
  private:
   void thread_main();
@@ -81,6 +86,7 @@ class PipelineWorker {
   std::deque<std::pair<std::string, Job>> queue_;
   std::deque<JobOutcome> outcomes_;
   std::shared_ptr<const render::LloydState> lloyd_update_;
+  std::function<void()> notify_;
   WorkerStatus status_;
   std::chrono::steady_clock::time_point job_start_;
   std::atomic<bool> cancel_{false};

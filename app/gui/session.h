@@ -63,6 +63,9 @@ class Session {
   }
   WorkerStatus worker_status() const { return worker_.status(); }
   bool busy() const { return worker_.busy(); }
+  bool has_finished_job() const { return worker_.has_outcome(); }
+  // See PipelineWorker::set_notify.
+  void set_notify(std::function<void()> notify) { worker_.set_notify(std::move(notify)); }
   void wait_idle() { worker_.wait_idle(); }
 
   Parameters edited;  // what the pipeline panel shows and edits (stage 6's options too)

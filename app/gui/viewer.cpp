@@ -28,11 +28,48 @@ double now_s() {
   return duration<double>(steady_clock::now().time_since_epoch()).count();
 }
 
-// Paths dropped on the window go to the vector behind the window's user pointer; the loop
-// opens them (GLFW calls back during event polling, on the UI thread).
+// What GLFW reports between frames, behind the window's user pointer (its callbacks run during
+// event polling, on the UI thread): paths dropped on the window, which the loop opens, and
+// whether the user did anything (ImGui's own callbacks chain to these).
+struct WindowEvents {
+  std::vector<std::string> dropped;
+  bool input = false;
+};
+
+WindowEvents& events_of(GLFWwindow* window) {
+  return *static_cast<WindowEvents*>(glfwGetWindowUserPointer(window));
+}
+
 void on_drop(GLFWwindow* window, int count, const char** paths) {
-  auto* dropped = static_cast<std::vector<std::string>*>(glfwGetWindowUserPointer(window));
-  for (int i = 0; i < count; ++i) dropped->emplace_back(paths[i]);
+  for (int i = 0; i < count; ++i) events_of(window).dropped.emplace_back(paths[i]);
+  events_of(window).input = true;
+}
+
+void watch_input(GLFWwindow* window) {
+  glfwSetDropCallback(window, on_drop);
+  glfwSetCursorPosCallback(window, [](GLFWwindow* w, double, double) { events_of(w).input = true; });
+  glfwSetMouseButtonCallback(window,
+                             [](GLFWwindow* w, int, int, int) { events_of(w).input = true; });
+  glfwSetScrollCallback(window, [](GLFWwindow* w, double, double) { events_of(w).input = true; });
+  glfwSetKeyCallback(window, [](GLFWwindow* w, int, int, int, int) { events_of(w).input = true; });
+  glfwSetCharCallback(window, [](GLFWwindow* w, unsigned) { events_of(w).input = true; });
+  glfwSetWindowSizeCallback(window, [](GLFWwindow* w, int, int) { events_of(w).input = true; });
+  glfwSetWindowFocusCallback(window, [](GLFWwindow* w, int) { events_of(w).input = true; });
+}
+
+// While a job runs, a frame (progress, the latest Lloyd state) comes at most this often unless
+// the user acts or a job ends: on a software renderer every frame takes CPU from the pipeline.
+constexpr double kBusyFrameInterval_s = 0.25;
+
+// Waits for the next frame while a job runs: an input event, a finished job, or the interval.
+void wait_while_busy(GLFWwindow* window, const Session& session, double last_draw_s) {
+  WindowEvents& events = events_of(window);
+  events.input = false;
+  glfwPollEvents();
+  const double due = last_draw_s + kBusyFrameInterval_s;
+  for (double now = now_s(); !events.input && !session.has_finished_job() && now < due;
+       now = now_s())
+    glfwWaitEventsTimeout(due - now);
 }
 
 // Mouse on the views (when ImGui does not want it): orbit/pan/zoom in 3D; pan, zoom, slice and
@@ -164,9 +201,9 @@ int run_viewer(const ViewerOptions& options) {
   glfwMakeContextCurrent(window);
   const bool scripted = options.exit_when_done;
   glfwSwapInterval(scripted ? 0 : 1);
-  std::vector<std::string> dropped;
-  glfwSetWindowUserPointer(window, &dropped);
-  glfwSetDropCallback(window, on_drop);
+  WindowEvents events;
+  glfwSetWindowUserPointer(window, &events);
+  watch_input(window);  // before ImGui's callbacks, which chain to these
 
   IMGUI_CHECKVERSION();
   ImGui::CreateContext();
@@ -194,6 +231,7 @@ int run_viewer(const ViewerOptions& options) {
     session_options.max_threads = options.max_threads;
     if (!scripted) session_options.recent_files_path = default_recent_files_path();
     Session session(session_options);
+    session.set_notify([] { glfwPostEmptyEvent(); });  // wakes a paced frame for a finished job
     ViewSettings view = options.view;
     UiState ui;
     std::unique_ptr<SceneRenderer> renderer;
@@ -224,20 +262,24 @@ int run_viewer(const ViewerOptions& options) {
     int ready_frames = 0, idle_frames = 0;
     BenchmarkRecorder bench(options.benchmark_frames);
     Rect last_area;
+    double last_draw_s = 0;  // when the last frame began its work
     while (renderer && exit_code == 0 && !glfwWindowShouldClose(window) && !ui.quit) {
       const double frame_start = now_s();
       const double cpu_start = options.benchmark_frames ? render_cpu_ms() : 0.0;
       const bool was_idle = !session.busy();
       const std::string running_job = session.worker_status().job;
-      // Benchmarks draw continuously. Other runs wait for events, or 1/30 s while a job runs
-      // (progress) and in scripted runs (which have no events), so the window costs little CPU
-      // and the lower-priority pipeline threads keep their cores.
-      if (options.benchmark_frames)
+      // While a job runs, frames are paced (wait_while_busy), so the lower-priority pipeline
+      // threads keep the cores. Idle, benchmarks draw continuously, scripted runs (which have
+      // no events) every 1/30 s, and others wait for events.
+      if (session.busy())
+        wait_while_busy(window, session, last_draw_s);
+      else if (options.benchmark_frames)
         glfwPollEvents();
       else
-        glfwWaitEventsTimeout(session.busy() || scripted ? 1.0 / 30 : 0.5);
+        glfwWaitEventsTimeout(scripted ? 1.0 / 30 : 0.5);
       const double work_start = now_s();
-      open_dropped(session, dropped);
+      last_draw_s = work_start;
+      open_dropped(session, events.dropped);
       session.poll(now_s());
       keys.feed(window, idle_frames >= 2);
       if (scripted && session.failed_jobs > 0) {
@@ -319,7 +361,8 @@ int run_viewer(const ViewerOptions& options) {
       glfwSwapBuffers(window);
       if (options.benchmark_frames) glFinish();  // time the whole frame, not just its submission
 
-      const double frame_ms = 1000.0 * (now_s() - frame_start);
+      // A paced frame's wait is not its time: from the start of its work.
+      const double frame_ms = 1000.0 * (now_s() - (session.busy() || !was_idle ? work_start : frame_start));
       ui.frame_ms = 1000.0 * (now_s() - work_start);
       if (options.benchmark_frames) {
         if (frame_ms > 50 && std::getenv("CVTMESH_GUI_TRACE"))

@@ -249,14 +249,15 @@ double tet_measure(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, M
   return measure_of(tet_figures(a, b, c, d), m);
 }
 
-std::vector<double> tet_measure(const TetMesh& mesh, Measure m) {
-  std::vector<double> out(mesh.tets.size());
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, out.size(), 4096), [&](const auto& r) {
+std::array<std::vector<double>, kMeasureCount> tet_measures(const TetMesh& mesh) {
+  std::array<std::vector<double>, kMeasureCount> out;
+  for (auto& values : out) values.resize(mesh.tets.size());
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh.tets.size(), 4096), [&](const auto& r) {
     for (std::size_t t = r.begin(); t != r.end(); ++t) {
       const Tet& tet = mesh.tets[t];
-      out[t] = measure_of(
-          tet_figures(vtx(mesh, tet[0]), vtx(mesh, tet[1]), vtx(mesh, tet[2]), vtx(mesh, tet[3])),
-          m);
+      const TetFigures f =
+          tet_figures(vtx(mesh, tet[0]), vtx(mesh, tet[1]), vtx(mesh, tet[2]), vtx(mesh, tet[3]));
+      for (int k = 0; k < kMeasureCount; ++k) out[std::size_t(k)][t] = measure_of(f, Measure(k));
     }
   });
   return out;

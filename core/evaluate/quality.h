@@ -51,8 +51,10 @@ struct TetFigures {
 TetFigures tet_figures(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
 double measure_of(const TetFigures& f, Measure m);
 
-// One value per tet of `mesh` (parallel); for a GUI colour map or .vtu cell data.
-std::vector<double> tet_measure(const TetMesh& mesh, Measure m);
+// Every measure, one value per tet of `mesh`, indexed by Measure (parallel, each tet's figures
+// computed once); for a GUI colour map.
+inline constexpr int kMeasureCount = 6;
+std::array<std::vector<double>, kMeasureCount> tet_measures(const TetMesh& mesh);
 
 struct QualityOptions {
   int histogram_bins = 20;        // bins of the per-measure histograms
