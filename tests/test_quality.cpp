@@ -170,6 +170,25 @@ TEST(Quality, TableBinsAddUpAndMatchPerTetValues) {
   EXPECT_EQ(j["validity"]["euler_characteristic"], 2);
 }
 
+TEST(Quality, EveryMeasureAtOnceEqualsEachOnItsOwn) {
+  Mask mask = phantom_mask(sphere_phantom({3, -2, 5}, 4.0));
+  TetMesh mesh = voxel_tet_mesh(mask);
+  std::mt19937 rng(5);
+  std::uniform_real_distribution<double> jitter(-0.2, 0.2);
+  for (Vec3& v : mesh.vertices) v += Vec3{jitter(rng), jitter(rng), jitter(rng)};
+  const auto all = tet_measures(mesh);
+  for (int k = 0; k < kMeasureCount; ++k) {
+    ASSERT_EQ(all[std::size_t(k)].size(), mesh.tets.size());
+    for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
+      const Tet& tet = mesh.tets[t];
+      ASSERT_EQ(all[std::size_t(k)][t],
+                tet_measure(mesh.vertices[tet[0]], mesh.vertices[tet[1]], mesh.vertices[tet[2]],
+                            mesh.vertices[tet[3]], Measure(k)))
+          << measure_key(Measure(k)) << " tet " << t;
+    }
+  }
+}
+
 TEST(Validity, PhantomMeshesHaveTheRightTopology) {
   struct Case {
     Phantom phantom;
