@@ -1,7 +1,14 @@
 #include "base/memory.h"
 
+#include <tbb/parallel_for.h>
+
+#include <cstdint>
 #include <fstream>
 #include <sstream>
+
+#ifdef __linux__
+#include <sys/mman.h>
+#endif
 
 #include "base/errors.h"
 
@@ -38,6 +45,24 @@ void require_memory(std::size_t bytes, std::size_t limit_bytes, const std::strin
         << limit / (1024 * 1024) << " MB " << (limit_bytes ? "are allowed" : "are available");
     throw InputError(msg.str());
   }
+}
+
+void fault_in_pages(void* data, std::size_t bytes) {
+#if defined(__linux__) && defined(MADV_HUGEPAGE) && defined(MADV_POPULATE_WRITE)
+  constexpr std::uintptr_t kHuge = std::uintptr_t(2) << 20;
+  // Whole 2 MiB pages inside the buffer (the partial ones at its ends fault in when written).
+  const std::uintptr_t begin = (std::uintptr_t(data) + kHuge - 1) & ~(kHuge - 1);
+  const std::uintptr_t end = (std::uintptr_t(data) + bytes) & ~(kHuge - 1);
+  if (end <= begin) return;
+  madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
+  // Errors (an old kernel) leave the pages to fault in when first written, as without this.
+  tbb::parallel_for(std::uintptr_t(0), (end - begin) / kHuge, [&](std::uintptr_t page) {
+    madvise(reinterpret_cast<void*>(begin + page * kHuge), kHuge, MADV_POPULATE_WRITE);
+  });
+#else
+  (void)data;
+  (void)bytes;
+#endif
 }
 
 }  // namespace cvt

@@ -4,16 +4,23 @@
 #include <vector>
 
 #include "base/grid.h"
+#include "base/memory.h"
 
 namespace cvt {
 
 template <class T>
 struct Volume {
+  static constexpr std::size_t kLargeBytes = std::size_t(8) << 20;
   Grid grid;
   std::vector<T> data;
 
   Volume() = default;
-  explicit Volume(const Grid& g, T fill = T()) : grid(g), data(g.voxel_count(), fill) {}
+  // A large volume's pages are faulted in by all threads first (fault_in_pages).
+  explicit Volume(const Grid& g, T fill = T()) : grid(g) {
+    data.reserve(g.voxel_count());
+    if (data.capacity() * sizeof(T) >= kLargeBytes) fault_in_pages(data.data(), data.capacity() * sizeof(T));
+    data.assign(g.voxel_count(), fill);
+  }
 
   T& at(int i, int j, int k) { return data[grid.linear(i, j, k)]; }
   const T& at(int i, int j, int k) const { return data[grid.linear(i, j, k)]; }

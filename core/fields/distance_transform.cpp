@@ -24,12 +24,10 @@
 #include <vector>
 
 #include "base/errors.h"
+#include "base/memory.h"
 #include "base/multiversion.h"
 #include "fields/byte_runs.h"
 
-#ifdef __linux__
-#include <sys/mman.h>
-#endif
 
 namespace cvt {
 namespace {
@@ -310,32 +308,6 @@ void transform(const Mask& features, float* value, std::int32_t* index, const Pr
       });
 }
 
-// Asks the kernel to back the whole 2 MiB pages inside [data, data + bytes) by huge pages.
-void advise_huge_pages(void* data, std::size_t bytes) {
-#if defined(__linux__) && defined(MADV_HUGEPAGE)
-  constexpr std::uintptr_t kHuge = std::uintptr_t(2) << 20;
-  const std::uintptr_t begin = (std::uintptr_t(data) + kHuge - 1) & ~(kHuge - 1);
-  const std::uintptr_t end = (std::uintptr_t(data) + bytes) & ~(kHuge - 1);
-  if (end > begin) madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
-#else
-  (void)data;
-  (void)bytes;
-#endif
-}
-
-// Sizes `v` to n elements. A fresh buffer is first asked to be backed by huge pages: faulting
-// in 2 MiB pages instead of 4 KiB ones makes the first touch of a large volume several times
-// cheaper (Linux transparent huge pages in "madvise" mode; elsewhere a no-op).
-template <class T>
-void size_buffer(std::vector<T>& v, std::size_t n) {
-  if (v.capacity() < n) {
-    v = std::vector<T>();
-    v.reserve(n);
-    advise_huge_pages(v.data(), n * sizeof(T));
-  }
-  v.resize(n);
-}
-
 void check_input(const Mask& features) {
   const Grid& grid = features.grid;
   if (grid.dims[0] < 0 || grid.dims[1] < 0 || grid.dims[2] < 0)
@@ -359,9 +331,9 @@ void compute_feature_transform(const Mask& features, FeatureTransform& out, bool
   const std::size_t n = grid.voxel_count();
   out.squared_distance_mm2.grid = grid;
   out.nearest.grid = grid;
-  size_buffer(out.squared_distance_mm2.data, n);
+  resize_large(out.squared_distance_mm2.data, n);
   if (compute_nearest)
-    size_buffer(out.nearest.data, n);
+    resize_large(out.nearest.data, n);
   else
     out.nearest.data.clear();
   if (n == 0) return;

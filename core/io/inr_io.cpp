@@ -142,7 +142,7 @@ Image read_image_inr(const std::string& path, const ReadOptions& options) {
   g.dims = {int(h.dims[0]), int(h.dims[1]), int(h.dims[2])};
   g.spacing = {cgal_image.vx(), cgal_image.vy(), cgal_image.vz()};
   g.origin = {cgal_image.tx(), cgal_image.ty(), cgal_image.tz()};  // 0 unless TX/TY/TZ given
-  image.voxels.data.resize(g.voxel_count());
+  resize_large(image.voxels.data, g.voxel_count());
   convert_to_float(cgal_image.data(), image.pixel_type, g.voxel_count(), image.voxels.data.data(),
                    image.integer_valued, path);
   image.source = path;

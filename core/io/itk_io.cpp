@@ -470,7 +470,7 @@ Image to_image(const ImageT& itk_image, const std::string& pixel_type, const std
     for (int c = 0; c < 3; ++c) grid.direction[a * 3 + c] = itk_image.GetDirection()[a][c];
   }
   image.voxels.grid = grid;
-  image.voxels.data.resize(grid.voxel_count());
+  resize_large(image.voxels.data, grid.voxel_count());
   constexpr bool is_float = std::is_same_v<typename ImageT::PixelType, float>;
   convert_to_float(itk_image.GetBufferPointer(), is_float ? "float32" : "float64",
                    grid.voxel_count(), image.voxels.data.data(), image.integer_valued, path);

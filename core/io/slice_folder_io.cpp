@@ -424,7 +424,7 @@ Image read_slice_folder(const std::string& folder, const ReadOptions& options) {
   Grid& g = image.voxels.grid;
   g.dims = {int(nx), int(ny), int(names.size())};
   g.spacing = s;
-  image.voxels.data.resize(voxels);
+  resize_large(image.voxels.data, voxels);
   std::vector<unsigned char> buffer(slice_voxels * read_size(pixel_type));
   for (std::size_t k = 0; k < names.size(); ++k) {
     const std::string file = (fs::path(folder) / names[k]).string();
