@@ -5,13 +5,13 @@
 #include <cstddef>
 #include <nlohmann/json_fwd.hpp>
 
-#include "preprocess/cleanup.h"
 #include "base/image.h"
-#include "fields/marching_cubes.h"
-#include "preprocess/object_selection.h"
 #include "base/progress.h"
 #include "base/tet_mesh.h"
 #include "base/volume.h"
+#include "fields/marching_cubes.h"
+#include "preprocess/cleanup.h"
+#include "preprocess/object_selection.h"
 
 namespace cvt {
 
@@ -55,7 +55,7 @@ struct FidelityOptions {
   // Sample spacing in smallest voxel spacings: two keep the liver's mean and 95th percentile
   // within 0.005 mm of a spacing of half a voxel, with a quarter of the samples.
   double sample_spacing_voxels = 2.0;
-  std::size_t max_samples = 4000000;   // area samples per surface (see SurfaceDistanceOptions)
+  std::size_t max_samples = 4000000;  // area samples per surface (see SurfaceDistanceOptions)
 };
 
 struct FidelityReport {
@@ -63,7 +63,7 @@ struct FidelityReport {
   double object_volume_mm3 = 0;     // object voxel count × voxel volume
   double volume_error_percent = 0;  // 100 (mesh − object) / object (signed)
   std::size_t object_surface_triangles = 0;
-  long long object_surface_euler = 0;  // of the marching-cubes surface, to hold the mesh
+  long long object_surface_euler = 0;         // of the marching-cubes surface, to hold the mesh
   std::size_t object_surface_components = 0;  // boundary's topology against
 
   SurfaceDistance distance;  // A = mesh boundary, B = object's marching-cubes surface

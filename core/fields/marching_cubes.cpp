@@ -112,18 +112,20 @@ Slab slab_surface(const MaskImage* image, int z0, int z1) {
   filter->SetRegionOfInterest(roi);
   filter->Update();
   const ItkMesh* mesh = filter->GetOutput();
-  std::vector<std::uint64_t> key(mesh->GetNumberOfPoints());
+  // (key, filter's id) sorted: equal keys are one vertex.
+  std::vector<std::pair<std::uint64_t, std::uint32_t>> key(mesh->GetNumberOfPoints());
   const auto* points = mesh->GetPoints();
   for (auto it = points->Begin(); it != points->End(); ++it)
-    key.at(it.Index()) = vertex_key(it.Value()[0], it.Value()[1], it.Value()[2]);
+    key.at(it.Index()) = {vertex_key(it.Value()[0], it.Value()[1], it.Value()[2]),
+                          std::uint32_t(it.Index())};
+  std::sort(key.begin(), key.end());
   Slab slab;
-  slab.keys = key;
-  std::sort(slab.keys.begin(), slab.keys.end());
-  slab.keys.erase(std::unique(slab.keys.begin(), slab.keys.end()), slab.keys.end());
-  auto id = [&](itk::IdentifierType v) {
-    return std::int32_t(std::lower_bound(slab.keys.begin(), slab.keys.end(), key.at(v)) -
-                        slab.keys.begin());
-  };
+  std::vector<std::int32_t> welded(key.size());  // per filter's id: index into slab.keys
+  for (const auto& [k, v] : key) {
+    if (slab.keys.empty() || slab.keys.back() != k) slab.keys.push_back(k);
+    welded[v] = std::int32_t(slab.keys.size() - 1);
+  }
+  auto id = [&](itk::IdentifierType v) { return welded.at(v); };
   slab.triangles.reserve(mesh->GetNumberOfCells());
   const auto* cells = mesh->GetCells();
   for (auto it = cells->Begin(); it != cells->End(); ++it) {
@@ -138,20 +140,22 @@ Slab slab_surface(const MaskImage* image, int z0, int z1) {
 // The slabs joined into one surface, vertices in key order. A vertex on the plane two slabs
 // share is in both; the upper slab's copy becomes the lower one's.
 TriangleSurface join_slabs(std::vector<Slab>& slabs, const Box& box, const Grid& grid) {
-  std::vector<std::vector<std::int32_t>> global(slabs.size());
+  std::vector<std::vector<std::int32_t>> global(slabs.size());  // per slab vertex: its index
+  // The index of key k in the slab below slab s, or −1. Keys sort by z first, so only keys up to
+  // the last one below can be on the shared plane.
+  auto shared = [&](std::size_t s, std::uint64_t k) {
+    if (s == 0 || slabs[s - 1].keys.empty() || k > slabs[s - 1].keys.back()) return -1;
+    const std::vector<std::uint64_t>& below = slabs[s - 1].keys;
+    const auto it = std::lower_bound(below.begin(), below.end(), k);
+    return *it == k ? global[s - 1][std::size_t(it - below.begin())] : -1;
+  };
   std::vector<std::uint64_t> keys;
   for (std::size_t s = 0; s < slabs.size(); ++s) {
-    const std::vector<std::uint64_t>& below = s > 0 ? slabs[s - 1].keys : slabs[s].keys;
     global[s].resize(slabs[s].keys.size());
     for (std::size_t v = 0; v < slabs[s].keys.size(); ++v) {
       const std::uint64_t k = slabs[s].keys[v];
-      const auto it = std::lower_bound(below.begin(), below.end(), k);
-      if (s > 0 && it != below.end() && *it == k) {
-        global[s][v] = global[s - 1][std::size_t(it - below.begin())];
-      } else {
-        global[s][v] = std::int32_t(keys.size());
-        keys.push_back(k);
-      }
+      global[s][v] = shared(s, k);
+      if (global[s][v] < 0) global[s][v] = std::int32_t(keys.size()), keys.push_back(k);
     }
   }
   TriangleSurface out;
