@@ -23,8 +23,12 @@ double point_triangle_squared_distance(const Vec3& p, const Vec3& a, const Vec3&
   if (vb <= 0 && d2 >= 0 && d6 <= 0) return squared_norm(ap - ac * (d2 / (d2 - d6)));  // edge ac
   if (va <= 0 && d4 - d3 >= 0 && d5 - d6 >= 0)                                         // edge bc
     return squared_norm(bp - (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6))));
-  const double area = va + vb + vc;  // ∝ the squared area: zero for a degenerate triangle
-  if (!(area > 0)) {
+  // Inside the face: the distance to its plane, unless the triangle is (nearly) degenerate, the
+  // sine of its angle at a below 1e-6: a needle no wider than 1e-6 of its length, whose edges are
+  // as near as its face and whose plane is meaningless.
+  const Vec3 n = cross(ab, ac);
+  const double nn = squared_norm(n);
+  if (!(nn > 1e-12 * squared_norm(ab) * squared_norm(ac))) {
     auto segment = [&](const Vec3& s, const Vec3& t) {
       const Vec3 st = t - s;
       const double l = squared_norm(st);
@@ -33,7 +37,8 @@ double point_triangle_squared_distance(const Vec3& p, const Vec3& a, const Vec3&
     };
     return std::min({segment(a, b), segment(b, c), segment(c, a)});
   }
-  return squared_norm(ap - ab * (vb / area) - ac * (vc / area));  // inside the face
+  const double height = dot(n, ap);
+  return height * height / nn;
 }
 
 namespace {

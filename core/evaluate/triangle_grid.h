@@ -12,7 +12,7 @@
 namespace cvt {
 
 // Squared distance from p to the closest point of the triangle (a, b, c); a degenerate triangle
-// counts as its edges.
+// (a segment, a point, a needle) counts as its edges.
 double point_triangle_squared_distance(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c);
 
 class TriangleGrid {
