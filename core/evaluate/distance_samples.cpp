@@ -26,6 +26,14 @@ std::uint32_t subdivisions(const TriangleSurface& s, const Triangle& t, double h
   return std::max<std::uint32_t>(1, std::uint32_t(std::ceil(longest / h)));
 }
 
+// A number in [0, 1) from a key (splitmix64's finaliser).
+double unit_hash(std::uint64_t x) {
+  x += 0x9E3779B97F4A7C15ull;
+  x = (x ^ (x >> 30)) * 0xBF58476D1CE4E5B9ull;
+  x = (x ^ (x >> 27)) * 0x94D049BB133111EBull;
+  return double((x ^ (x >> 31)) >> 11) * 0x1p-53;
+}
+
 }  // namespace
 
 TrianglePiece DistanceSamples::piece(std::uint32_t triangle, std::uint32_t index) const {
@@ -82,9 +90,10 @@ DistanceSamples::DistanceSamples(const TriangleSurface& surface, double h) : sur
   });
   tbb::parallel_sort(keyed.begin(), keyed.end());
   members_.resize(keyed.size());
+  std::vector<std::uint64_t> cube;  // per group
   for (std::size_t m = 0; m < keyed.size(); ++m) {
     if (m == 0 || std::get<0>(keyed[m]) != std::get<0>(keyed[m - 1]))
-      start_.push_back(std::uint32_t(m));
+      start_.push_back(std::uint32_t(m)), cube.push_back(std::get<0>(keyed[m]));
     members_[m] = {std::get<1>(keyed[m]), std::get<2>(keyed[m])};
   }
   start_.push_back(std::uint32_t(keyed.size()));
@@ -97,13 +106,18 @@ DistanceSamples::DistanceSamples(const TriangleSurface& surface, double h) : sur
   tbb::parallel_for(std::size_t(0), groups, [&](std::size_t g) {
     const std::vector<TrianglePiece> ps = pieces(g);
     double total = 0;
-    Vec3 centre;
-    for (const TrianglePiece& p : ps) total += piece_area(p), centre += centroid(p) * piece_area(p);
-    if (total > 0) centre = centre / total;
-    double nearest = std::numeric_limits<double>::infinity();
+    for (const TrianglePiece& p : ps) total += piece_area(p);
+    // One piece, drawn with probability ∝ its area by a hash of the cube: an unbiased sample of
+    // the group's mean distance (a fixed choice, such as the piece nearest the group's centre,
+    // aliases with the lattice of a marching-cubes surface).
+    const double pick = unit_hash(cube[g]) * total;
+    double below = 0;
+    at_[g] = centroid(ps.back());
     for (const TrianglePiece& p : ps)
-      if (squared_distance(centroid(p), centre) < nearest)
-        nearest = squared_distance(centroid(p), centre), at_[g] = centroid(p);
+      if ((below += piece_area(p)) > pick) {
+        at_[g] = centroid(p);
+        break;
+      }
     double reach2 = 0;
     for (const TrianglePiece& p : ps)
       for (const Vec3& v : {p.a, p.b, p.c}) reach2 = std::max(reach2, squared_distance(v, at_[g]));

@@ -2,8 +2,9 @@
 // one sample per h × h of surface, however small or large its triangles are. Every triangle is
 // cut into k² pieces with edges ≤ h (k = 1 for a triangle no longer than h), and the pieces are
 // grouped by the cube of side h, from the surface's lowest corner, that holds their centroid. A
-// group is one sample: at the centroid of its piece nearest the group's area-weighted centre,
-// standing for the group's area. Deterministic and area-uniform.
+// group is one sample, standing for the group's area: at the centroid of one of its pieces, drawn
+// with probability ∝ area by a hash of the cube (deterministic; stratified, so the area-weighted
+// mean of the samples is an unbiased estimate of the surface's mean).
 #pragma once
 
 #include <cstddef>
