@@ -4,6 +4,7 @@
 
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
+#include <tbb/parallel_invoke.h>
 #include <tbb/parallel_reduce.h>
 #include <tbb/parallel_sort.h>
 
@@ -208,7 +209,7 @@ SurfaceDistance surface_distance(const TriangleSurface& a, const TriangleSurface
   std::optional<DistanceSamples> sa, sb;
   for (int guard = 0; guard < 60; ++guard) {
     progress.check_cancelled();
-    sa.emplace(a, h), sb.emplace(b, h);
+    tbb::parallel_invoke([&] { sa.emplace(a, h); }, [&] { sb.emplace(b, h); });
     const std::size_t n = std::max(sa->size(), sb->size());
     if (n <= options.max_samples) break;
     h *= std::max(1.05, std::sqrt(double(n) / double(options.max_samples)));
@@ -217,15 +218,11 @@ SurfaceDistance surface_distance(const TriangleSurface& a, const TriangleSurface
   const double tolerance = options.max_error_mm > 0 ? options.max_error_mm : 0.02 * h;
   // (distance, weight) over both directions, for the mean and the percentile.
   std::vector<std::pair<double, double>> all;
-  OneSide ab, ba;
-  {
-    const NearestTriangle to_b(b);
-    ab = one_side(*sa, to_b, tolerance, all, progress);
-  }
-  {
-    const NearestTriangle to_a(a);
-    ba = one_side(*sb, to_a, tolerance, all, progress);
-  }
+  std::optional<NearestTriangle> to_a, to_b;  // their builds are serial: both at once
+  tbb::parallel_invoke([&] { to_a.emplace(a); }, [&] { to_b.emplace(b); });
+  progress.check_cancelled();
+  const OneSide ab = one_side(*sa, *to_b, tolerance, all, progress);
+  const OneSide ba = one_side(*sb, *to_a, tolerance, all, progress);
   out.samples_a = ab.samples, out.samples_b = ba.samples;
   out.a_to_b_max_mm = ab.max, out.a_to_b_max_at = ab.max_at, out.a_to_b_mean_mm = ab.mean;
   out.b_to_a_max_mm = ba.max, out.b_to_a_max_at = ba.max_at, out.b_to_a_mean_mm = ba.mean;
@@ -256,17 +253,22 @@ SurfaceDistance surface_distance(const TetMesh& a, const TetMesh& b,
 FidelityReport compute_fidelity(const TetMesh& mesh, const Mask& object,
                                 const FidelityOptions& options, const Progress& progress) {
   FidelityReport rep;
-  for (const Tet& t : mesh.tets) rep.mesh_volume_mm3 += signed_volume(mesh, t);
   const Vec3& s = object.grid.spacing;
-  const auto voxels =
-      std::count_if(object.data.begin(), object.data.end(), [](unsigned char v) { return v != 0; });
-  rep.object_volume_mm3 = double(voxels) * s.x * s.y * s.z;
+  progress.check_cancelled();
+  // The marching cubes, mostly serial within a slab, beside the mesh's boundary and volumes.
+  TriangleSurface reference, boundary;
+  tbb::parallel_invoke([&] { reference = marching_cubes(object); },
+                       [&] {
+                         boundary = boundary_surface(mesh);
+                         for (const Tet& t : mesh.tets)
+                           rep.mesh_volume_mm3 += signed_volume(mesh, t);
+                         const auto voxels = std::count_if(object.data.begin(), object.data.end(),
+                                                           [](unsigned char v) { return v != 0; });
+                         rep.object_volume_mm3 = double(voxels) * s.x * s.y * s.z;
+                       });
   if (rep.object_volume_mm3 > 0)
     rep.volume_error_percent =
         100.0 * (rep.mesh_volume_mm3 - rep.object_volume_mm3) / rep.object_volume_mm3;
-
-  progress.check_cancelled();
-  const TriangleSurface reference = marching_cubes(object);
   progress.check_cancelled();
   rep.object_surface_triangles = reference.triangles.size();
   std::tie(rep.object_surface_euler, rep.object_surface_components) =
@@ -275,7 +277,7 @@ FidelityReport compute_fidelity(const TetMesh& mesh, const Mask& object,
   sd.sample_spacing_mm = options.sample_spacing_voxels * std::min({s.x, s.y, s.z});
   sd.max_samples = options.max_samples;
   progress.check_cancelled();
-  rep.distance = surface_distance(boundary_surface(mesh), reference, sd, progress);
+  rep.distance = surface_distance(boundary, reference, sd, progress);
   return rep;
 }
 
