@@ -1,7 +1,6 @@
 #include "evaluate/distance_samples.h"
 
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <cmath>
@@ -88,7 +87,26 @@ DistanceSamples::DistanceSamples(const TriangleSurface& surface, double h) : sur
           keyed[at++] = {key, std::uint32_t(t), index};
         }
   });
-  tbb::parallel_sort(keyed.begin(), keyed.end());
+  // Sorted by cube, stably (pieces stay in (triangle, piece) order within a cube): a counting
+  // sort by the cube's z, then each z layer sorted on its own, in parallel.
+  std::vector<std::size_t> layer(1, 0);
+  for (const auto& e : keyed) {
+    const std::size_t z = std::size_t(std::get<0>(e) >> (2 * kBits));
+    if (layer.size() < z + 2) layer.resize(z + 2, 0);
+    ++layer[z + 1];
+  }
+  for (std::size_t z = 1; z < layer.size(); ++z) layer[z] += layer[z - 1];
+  {
+    std::vector<std::tuple<std::uint64_t, std::uint32_t, std::uint32_t>> by_layer(keyed.size());
+    std::vector<std::size_t> fill(layer.begin(), layer.end() - 1);
+    for (const auto& e : keyed) by_layer[fill[std::size_t(std::get<0>(e) >> (2 * kBits))]++] = e;
+    keyed.swap(by_layer);
+  }
+  tbb::parallel_for(std::size_t(0), layer.size() - 1, [&](std::size_t z) {
+    std::stable_sort(keyed.begin() + std::ptrdiff_t(layer[z]),
+                     keyed.begin() + std::ptrdiff_t(layer[z + 1]),
+                     [](const auto& a, const auto& b) { return std::get<0>(a) < std::get<0>(b); });
+  });
   members_.resize(keyed.size());
   std::vector<std::uint64_t> cube;  // per group
   for (std::size_t m = 0; m < keyed.size(); ++m) {
@@ -105,19 +123,17 @@ DistanceSamples::DistanceSamples(const TriangleSurface& surface, double h) : sur
   reach_.resize(groups);
   tbb::parallel_for(std::size_t(0), groups, [&](std::size_t g) {
     const std::vector<TrianglePiece> ps = pieces(g);
+    std::vector<double> areas(ps.size());
     double total = 0;
-    for (const TrianglePiece& p : ps) total += piece_area(p);
+    for (std::size_t i = 0; i < ps.size(); ++i) total += areas[i] = piece_area(ps[i]);
     // One piece, drawn with probability ∝ its area by a hash of the cube: an unbiased sample of
     // the group's mean distance (a fixed choice, such as the piece nearest the group's centre,
     // aliases with the lattice of a marching-cubes surface).
     const double pick = unit_hash(cube[g]) * total;
-    double below = 0;
-    at_[g] = centroid(ps.back());
-    for (const TrianglePiece& p : ps)
-      if ((below += piece_area(p)) > pick) {
-        at_[g] = centroid(p);
-        break;
-      }
+    std::size_t chosen = 0;
+    for (double below = areas[0]; below <= pick && chosen + 1 < ps.size();)
+      below += areas[++chosen];
+    at_[g] = centroid(ps[chosen]);
     double reach2 = 0;
     for (const TrianglePiece& p : ps)
       for (const Vec3& v : {p.a, p.b, p.c}) reach2 = std::max(reach2, squared_distance(v, at_[g]));
