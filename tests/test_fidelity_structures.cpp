@@ -4,6 +4,7 @@
 #include <itkBinaryMask3DMeshSource.h>
 #include <itkImage.h>
 #include <itkMesh.h>
+#include <tbb/global_control.h>
 
 #include <algorithm>
 #include <array>
@@ -303,4 +304,23 @@ TEST(Fidelity, ObjectSurfaceTopologyEqualsTheFullCheck) {
     EXPECT_EQ(rep.object_surface_components, full.components) << p.name;
     EXPECT_EQ(rep.object_surface_triangles, s.triangles.size()) << p.name;
   }
+}
+
+// The same figures, bit for bit, whatever the thread count.
+TEST(Fidelity, SameFiguresOnAnyThreadCount) {
+  const Mask mask = phantom_mask(torus_phantom({1, 2, 3}, 8.0, 3.0), {0.7, 0.8, 0.35});
+  TetMesh mesh = voxel_tet_mesh(mask);
+  for (Vec3& v : mesh.vertices) v = v + Vec3{0.05, -0.03, 0.02} + v * 0.01;
+  auto figures = [&](int threads) {
+    const tbb::global_control limit(tbb::global_control::max_allowed_parallelism,
+                                    std::size_t(threads));
+    const FidelityReport r = compute_fidelity(mesh, mask);
+    return std::vector<double>{r.volume_error_percent,     r.distance.hausdorff_mm,
+                               r.distance.mean_mm,         r.distance.p95_mm,
+                               r.distance.a_to_b_max_at.x, r.distance.b_to_a_max_at.y,
+                               r.distance.a_to_b_mean_mm,  double(r.distance.samples_b)};
+  };
+  const std::vector<double> one = figures(1);
+  EXPECT_EQ(figures(2), one);
+  EXPECT_EQ(figures(4), one);
 }

@@ -205,21 +205,25 @@ SurfaceDistance surface_distance(const TriangleSurface& a, const TriangleSurface
   double h = options.sample_spacing_mm > 0 ? options.sample_spacing_mm
                                            : std::max(diagonal(a), diagonal(b)) / 200;
   if (!(h > 0)) h = 1;  // empty or single-point surfaces
-  // Coarsen until both surfaces stay below max_samples (samples scale as 1/h²).
+  // Coarsen until both surfaces stay below max_samples (samples scale as 1/h²), while the grids
+  // are built (each build is serial, hence the three at once).
   std::optional<DistanceSamples> sa, sb;
-  for (int guard = 0; guard < 60; ++guard) {
-    progress.check_cancelled();
-    tbb::parallel_invoke([&] { sa.emplace(a, h); }, [&] { sb.emplace(b, h); });
-    const std::size_t n = std::max(sa->size(), sb->size());
-    if (n <= options.max_samples) break;
-    h *= std::max(1.05, std::sqrt(double(n) / double(options.max_samples)));
-  }
+  std::optional<NearestTriangle> to_a, to_b;
+  auto sample = [&] {
+    for (int guard = 0; guard < 60; ++guard) {
+      progress.check_cancelled();
+      tbb::parallel_invoke([&] { sa.emplace(a, h); }, [&] { sb.emplace(b, h); });
+      const std::size_t n = std::max(sa->size(), sb->size());
+      if (n <= options.max_samples) break;
+      h *= std::max(1.05, std::sqrt(double(n) / double(options.max_samples)));
+    }
+  };
+  tbb::parallel_invoke(
+      sample, [&] { to_a.emplace(a); }, [&] { to_b.emplace(b); });
   out.sample_spacing_mm = h;
   const double tolerance = options.max_error_mm > 0 ? options.max_error_mm : 0.02 * h;
   // (distance, weight) over both directions, for the mean and the percentile.
   std::vector<std::pair<double, double>> all;
-  std::optional<NearestTriangle> to_a, to_b;  // their builds are serial: both at once
-  tbb::parallel_invoke([&] { to_a.emplace(a); }, [&] { to_b.emplace(b); });
   progress.check_cancelled();
   const OneSide ab = one_side(*sa, *to_b, tolerance, all, progress);
   const OneSide ba = one_side(*sb, *to_a, tolerance, all, progress);
