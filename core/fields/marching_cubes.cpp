@@ -75,7 +75,8 @@ MaskImage::Pointer padded_box_image(const Mask& mask, const Box& box) {
     for (int j = box.lo[1]; j < box.hi[1]; ++j) {
       unsigned char* row =
           out + (std::size_t(k - box.lo[2] + 1) * ny + std::size_t(j - box.lo[1] + 1)) * nx + 1;
-      for (int i = box.lo[0]; i < box.hi[0]; ++i) row[i - box.lo[0]] = mask.at(i, j, k) != 0;
+      const unsigned char* in = &mask.data[mask.grid.linear(box.lo[0], j, k)];
+      for (int i = 0; i < box.hi[0] - box.lo[0]; ++i) row[i] = in[i] != 0;
     }
   });
   return image;
