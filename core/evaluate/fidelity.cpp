@@ -5,13 +5,11 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_invoke.h>
-#include <tbb/parallel_reduce.h>
 #include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <functional>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <numeric>
@@ -22,6 +20,7 @@
 #include "evaluate/distance_samples.h"
 #include "evaluate/quality.h"
 #include "evaluate/triangle_grid.h"
+
 namespace cvt {
 namespace {
 
@@ -130,13 +129,13 @@ OneSide one_side(const DistanceSamples& samples, const NearestTriangle& to, doub
   // each take the candidates with the largest bound (above the maximum known before the round,
   // so the result does not depend on scheduling): the groups, measured piece by piece, then
   // their pieces, split by refine_maximum.
-  auto largest_bounds = [&](std::vector<std::pair<double, std::size_t>>& bound, std::size_t n) {
+  auto largest_bounds = [&](std::vector<std::pair<double, std::size_t>>& bound, std::size_t most) {
     bound.erase(std::remove_if(bound.begin(), bound.end(),
                                [&](const auto& b) { return -b.first <= out.max + tolerance; }),
                 bound.end());
-    n = std::min(n, bound.size());
-    std::partial_sort(bound.begin(), bound.begin() + std::ptrdiff_t(n), bound.end());
-    bound.resize(n);
+    most = std::min(most, bound.size());
+    std::partial_sort(bound.begin(), bound.begin() + std::ptrdiff_t(most), bound.end());
+    bound.resize(most);
   };
   std::vector<std::pair<double, std::size_t>> bound;  // (−bound, group): largest first
   for (std::size_t g = 0; g < n; ++g) bound.emplace_back(-(d[g] + samples.reach(g)), g);

@@ -18,7 +18,7 @@ double point_triangle_squared_distance(const Vec3& p, const Vec3& a, const Vec3&
 class TriangleGrid {
  public:
   // Cells of cell_mm (≤ 0: twice the mean longest triangle edge) over the bounding box of the
-  // triangles, never many more cells than triangles. Each triangle is listed in every cell its
+  // triangles, at most about four cells per triangle. Each triangle is listed in every cell its
   // bounding box meets. Keeps a reference to `surface`, which must outlive the grid.
   explicit TriangleGrid(const TriangleSurface& surface, double cell_mm = 0);
 

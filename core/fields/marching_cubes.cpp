@@ -160,6 +160,9 @@ TriangleSurface join_slabs(std::vector<Slab>& slabs, const Box& box, const Grid&
     }
   }
   TriangleSurface out;
+  std::size_t triangles = 0;
+  for (const Slab& slab : slabs) triangles += slab.triangles.size();
+  out.triangles.reserve(triangles);
   for (std::size_t s = 0; s < slabs.size(); ++s)
     for (const Triangle& t : slabs[s].triangles)
       out.triangles.push_back({global[s][t[0]], global[s][t[1]], global[s][t[2]]});
