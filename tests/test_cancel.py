@@ -99,13 +99,13 @@ class CtrlC(unittest.TestCase):
     def test_fidelity_check(self):
         self.interrupt("fidelity check")
 
-    # Fidelity evaluation (on request): marching cubes (~0.9 s), the surface's topology and the
-    # distance tree (~0.9 s), then the distance queries, which check often: 2 s lands in those.
+    # Fidelity evaluation (on request): marching cubes (~0.2 s), then the samples, the distance
+    # grids and the distance queries (~0.3 s), which check often: 0.3 s lands in those.
     def test_fidelity(self):
         self.interrupt("fidelity", "--evaluate")
 
     def test_fidelity_distances(self):
-        self.interrupt("fidelity", "--evaluate", delay=2.0)
+        self.interrupt("fidelity", "--evaluate", delay=0.3)
 
     # Stage 6 checks between chunks of each phase of a pass.
     def test_optimisation(self):

@@ -18,9 +18,11 @@ struct TriangleSurface {
 
 // The 0.5 iso-surface of the mask (non-zero = inside; treated as 0 outside the grid, so it is
 // closed) by marching cubes over the cubes whose corners are voxel centres: ITK's
-// itk::BinaryMask3DMeshSource on the mask padded by one voxel. Vertices sit at the midpoints of
-// in/out voxel-centre edges; ambiguous faces keep the inside corners apart (the surface of the
-// 6-connected object), so the result is a closed, outward-oriented 2-manifold; world (mm).
+// itk::BinaryMask3DMeshSource on the box of the object padded by one voxel, run on slabs of 16
+// cube layers in parallel and joined (the triangles of one run over the whole mask). Vertices
+// sit at the midpoints of in/out voxel-centre edges, numbered in (z, y, x) order; ambiguous
+// faces keep the inside corners apart (the surface of the 6-connected object), so the result is
+// a closed, outward-oriented 2-manifold; world (mm). Masks up to 2^20 voxels along each axis.
 TriangleSurface marching_cubes(const Mask& mask);
 
 // Every non-zero voxel as a cube (corners at voxel centre ± spacing/2, world) split into six
