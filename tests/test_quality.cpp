@@ -131,12 +131,22 @@ TEST(Quality, MeasuresAreScaleAndRigidMotionInvariant) {
     EXPECT_NEAR(measure(q, m), measure(p, m), 1e-9 * std::abs(measure(p, m))) << measure_key(m);
 }
 
+namespace {
+
+// A ball's voxels as tets, every vertex moved by up to `jitter` along each axis: tets of
+// all shapes, in every bin.
+TetMesh jittered_ball_mesh(double radius, unsigned seed, double jitter) {
+  TetMesh mesh = voxel_tet_mesh(phantom_mask(sphere_phantom({3, -2, 5}, radius)));
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> move(-jitter, jitter);
+  for (Vec3& v : mesh.vertices) v += Vec3{move(rng), move(rng), move(rng)};
+  return mesh;
+}
+
+}  // namespace
+
 TEST(Quality, TableBinsAddUpAndMatchPerTetValues) {
-  Mask mask = phantom_mask(sphere_phantom({3, -2, 5}, 6.0));
-  TetMesh mesh = voxel_tet_mesh(mask);
-  std::mt19937 rng(3);
-  std::uniform_real_distribution<double> jitter(-0.15, 0.15);
-  for (Vec3& v : mesh.vertices) v += Vec3{jitter(rng), jitter(rng), jitter(rng)};
+  const TetMesh mesh = jittered_ball_mesh(6.0, 3, 0.15);
   const QualityReport rep = compute_quality(mesh);
   EXPECT_EQ(rep.tets, mesh.tets.size());
   for (int i = 0; i < 3; ++i) {
@@ -171,11 +181,7 @@ TEST(Quality, TableBinsAddUpAndMatchPerTetValues) {
 }
 
 TEST(Quality, EveryMeasureAtOnceEqualsEachOnItsOwn) {
-  Mask mask = phantom_mask(sphere_phantom({3, -2, 5}, 4.0));
-  TetMesh mesh = voxel_tet_mesh(mask);
-  std::mt19937 rng(5);
-  std::uniform_real_distribution<double> jitter(-0.2, 0.2);
-  for (Vec3& v : mesh.vertices) v += Vec3{jitter(rng), jitter(rng), jitter(rng)};
+  const TetMesh mesh = jittered_ball_mesh(4.0, 5, 0.2);
   const auto all = tet_measures(mesh);
   for (int k = 0; k < kMeasureCount; ++k) {
     ASSERT_EQ(all[std::size_t(k)].size(), mesh.tets.size());
