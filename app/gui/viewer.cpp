@@ -59,7 +59,7 @@ void watch_input(GLFWwindow* window) {
 
 // While a job runs, a frame (progress, the latest Lloyd state) comes at most this often unless
 // the user acts or a job ends: on a software renderer every frame takes CPU from the pipeline.
-constexpr double kBusyFrameInterval_s = 0.25;
+constexpr double kBusyFrameInterval_s = 0.5;
 
 // Waits for the next frame while a job runs: an input event, a finished job, or the interval.
 void wait_while_busy(GLFWwindow* window, const Session& session, double last_draw_s) {
