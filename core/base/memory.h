@@ -19,7 +19,8 @@ void require_memory(std::size_t bytes, std::size_t limit_bytes, const std::strin
 // Faults in the pages of [data, data + bytes), by all threads, asking for huge pages first. A
 // fresh buffer's first touch (the kernel zeroing and mapping its pages) otherwise runs on the
 // one thread that fills it, and on the liver it took longer than the distance transform that
-// then wrote the buffer. Linux only; elsewhere (or on kernels before 5.14) a no-op.
+// then wrote the buffer. Only whole 2 MiB pages inside the buffer are touched, so a small buffer
+// costs nothing. Linux only; elsewhere (or on kernels before 5.14) a no-op.
 void fault_in_pages(void* data, std::size_t bytes);
 
 // v sized to n elements (value-initialised), a fresh buffer's pages faulted in in parallel.

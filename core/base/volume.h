@@ -10,15 +10,14 @@ namespace cvt {
 
 template <class T>
 struct Volume {
-  static constexpr std::size_t kLargeBytes = std::size_t(8) << 20;
   Grid grid;
   std::vector<T> data;
 
   Volume() = default;
-  // A large volume's pages are faulted in by all threads first (fault_in_pages).
+  // The pages of a large volume are faulted in by all threads first (fault_in_pages).
   explicit Volume(const Grid& g, T fill = T()) : grid(g) {
     data.reserve(g.voxel_count());
-    if (data.capacity() * sizeof(T) >= kLargeBytes) fault_in_pages(data.data(), data.capacity() * sizeof(T));
+    fault_in_pages(data.data(), data.capacity() * sizeof(T));
     data.assign(g.voxel_count(), fill);
   }
 
