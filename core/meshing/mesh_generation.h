@@ -47,8 +47,8 @@ struct MeshGenerationOptions {
   bool repair_manifold = true;      // rule 3: delete samples where the boundary pinches, then
                                     // peel whatever pinch remains, so it is a closed 2-manifold
   int max_pinch_passes = 100;       // rounds of sample deletion before peeling takes over: a
-                                    // round costs only what it changes, peeling a pass over
-                                    // every tet (a folded 1.7M-vertex brain needs 13 rounds)
+                                    // round costs what it changes, a peeling pass every tet;
+                                    // a larger boundary can need more rounds
   double min_component_fraction = 0.01;  // rule 4: drop tet groups below this volume fraction
                                          // of the largest (stray slivers)
 };
