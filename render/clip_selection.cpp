@@ -1,48 +1,22 @@
 #include "clip_selection.h"
 
 #include <tbb/parallel_for.h>
-#include <tbb/parallel_sort.h>
 
 #include <algorithm>
 #include <array>
 
 namespace cvt::render {
-namespace {
-
-// A face with sorted vertex ids and where it came from (4 t + f).
-struct FaceKey {
-  std::array<std::int32_t, 3> v;
-  std::int32_t slot;
-  bool operator<(const FaceKey& o) const { return v != o.v ? v < o.v : slot < o.slot; }
-};
-
-}  // namespace
 
 TetNeighbours compute_tet_neighbours(const TetMesh& mesh) {
-  const std::size_t n = mesh.tets.size();
-  std::vector<FaceKey> faces(4 * n);
-  tbb::parallel_for(std::size_t(0), n, [&](std::size_t t) {
-    const auto f = outward_faces(mesh.tets[t]);
-    for (int k = 0; k < 4; ++k) {
-      std::array<std::int32_t, 3> v = f[k];
-      std::sort(v.begin(), v.end());
-      faces[4 * t + k] = {v, std::int32_t(4 * t + k)};
-    }
-  });
-  tbb::parallel_sort(faces.begin(), faces.end());
+  // Core links the faces of a face used more than twice in a cycle; here such a face links
+  // nobody (a pair only where the partner links back), so it shows up as visible.
+  const std::vector<std::int64_t> face = face_neighbours(mesh.vertices.size(), mesh.tets);
   TetNeighbours result;
-  result.across.assign(4 * n, -1);
-  // Equal keys are adjacent after sorting; a face shared by exactly two tets links them (a
-  // non-manifold face used three times links nobody, so it shows up as visible).
-  for (std::size_t i = 0; i < faces.size();) {
-    std::size_t j = i + 1;
-    while (j < faces.size() && faces[j].v == faces[i].v) ++j;
-    if (j - i == 2) {
-      result.across[faces[i].slot] = faces[i + 1].slot / 4;
-      result.across[faces[i + 1].slot] = faces[i].slot / 4;
-    }
-    i = j;
-  }
+  result.across.resize(face.size());
+  tbb::parallel_for(std::size_t(0), face.size(), [&](std::size_t f) {
+    const std::int64_t g = face[f];
+    result.across[f] = g >= 0 && face[std::size_t(g)] == std::int64_t(f) ? std::int32_t(g / 4) : -1;
+  });
   return result;
 }
 

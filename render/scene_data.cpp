@@ -22,19 +22,20 @@ std::shared_ptr<const LloydState> make_lloyd_state(const LloydStepper& stepper,
   return s;
 }
 
-std::shared_ptr<const VolumeLayers> make_volume_layers(const PreprocessResult& pre,
-                                                       const Grid& image_grid) {
+std::shared_ptr<const VolumeLayers> make_volume_layers(
+    std::shared_ptr<const PreprocessResult> pre, const Grid& image_grid) {
   auto v = std::make_shared<VolumeLayers>();
-  v->grid = pre.object.grid;
+  v->grid = pre->object.grid;
   // The crop is a sub-grid (same spacing and direction), so its origin sits on a voxel of the
   // image grid.
   const Vec3 at = image_grid.world_to_index(v->grid.origin);
   for (int a = 0; a < 3; ++a) v->offset[a] = int(std::lround(at[a]));
-  v->object = pre.object;
-  v->lfs_mm = pre.lfs_mm;
-  v->medial_axis = pre.medial_axis;
-  v->lfs_bounds = pre.lfs_bounds;
-  v->object_surface = object_surface_preview(pre.object, pre.boundary.size());
+  v->lfs_bounds = pre->lfs_bounds;
+  v->object_surface = object_surface_preview(pre->object, pre->boundary.size());
+  // Aliasing pointers: each shares ownership of the whole result.
+  v->object = std::shared_ptr<const Mask>(pre, &pre->object);
+  v->lfs_mm = std::shared_ptr<const Volume<float>>(pre, &pre->lfs_mm);
+  v->medial_axis = std::shared_ptr<const Mask>(pre, &pre->medial_axis);
   return v;
 }
 
@@ -128,9 +129,9 @@ std::shared_ptr<const SceneData> SceneDataBuilder::update(const Pipeline& pipeli
       out.generations.*generation = out.generation;
     }
   };
-  const PreprocessResult* pre = pipeline.preprocess();
+  std::shared_ptr<const PreprocessResult> pre = pipeline.shared_preprocess();
   pick(&SceneData::volumes, &PartGenerations::volumes, pre != nullptr, ran[int(Stage::preprocess)],
-       [&] { return make_volume_layers(*pre, image->grid()); });
+       [&] { return make_volume_layers(pre, image->grid()); });
   const SurfaceSamples* surf = pipeline.surface();
   pick(&SceneData::surface_samples, &PartGenerations::surface, surf != nullptr,
        ran[int(Stage::surface)],
@@ -152,8 +153,17 @@ std::shared_ptr<const SceneData> SceneDataBuilder::update(const Pipeline& pipeli
   pick(&SceneData::optimization, &PartGenerations::optimization, optimized != nullptr,
        ran[int(Stage::optimize)],
        [&] { return std::make_shared<const OptimizationResult>(optimized->optimization); });
+  // The stage-5 mesh's measures: those the last snapshot drew, when it drew that mesh.
+  const bool drew_stage5 = prev && prev->mesh && !prev->optimization && !ran[int(Stage::mesh)];
   pick(&SceneData::unoptimized, &PartGenerations::unoptimized, generated && optimized,
-       ran[int(Stage::mesh)], [&] { return make_mesh_measures(generated->mesh); });
+       ran[int(Stage::mesh)], [&] {
+         if (!drew_stage5) return make_mesh_measures(generated->mesh);
+         auto m = std::make_shared<MeshMeasures>();
+         m->vertices = prev->mesh->mesh.vertices.size();
+         m->tets = prev->mesh->mesh.tets.size();
+         m->measures = prev->mesh->measures;
+         return std::shared_ptr<const MeshMeasures>(std::move(m));
+       });
   const bool evaluated = ran[int(Stage::evaluate)];
   pick(&SceneData::quality, &PartGenerations::quality, pipeline.quality() != nullptr, evaluated,
        [&] { return std::make_shared<const QualityReport>(*pipeline.quality()); });

@@ -17,13 +17,15 @@
 
 namespace cvt::render {
 
-// Stage 1 results on the cropped grid, for the slice overlays and the early 3D surface.
+// Stage 1 results on the cropped grid, for the slice overlays and the early 3D surface. The
+// volumes are the pipeline's own, shared (each pointer keeps its whole stage-1 result alive),
+// not copies: a snapshot after stage 1 costs no copy of the volumes.
 struct VolumeLayers {
-  Grid grid;                       // the cropped (and padded) object grid
-  std::array<int, 3> offset{};     // image voxel of crop voxel (0,0,0)
-  Mask object;                     // 1 inside
-  Volume<float> lfs_mm;            // clamped local feature size
-  Mask medial_axis;                // 1 inner, 2 outer
+  Grid grid;                                  // the cropped (and padded) object grid
+  std::array<int, 3> offset{};                // image voxel of crop voxel (0,0,0)
+  std::shared_ptr<const Mask> object;         // 1 inside
+  std::shared_ptr<const Volume<float>> lfs_mm;  // clamped local feature size
+  std::shared_ptr<const Mask> medial_axis;    // 1 inner, 2 outer
   LfsBounds lfs_bounds{0, 0};      // the colormap range of lfs_mm
   TriangleSurface object_surface;  // object_surface_preview (world mm)
 };
@@ -115,8 +117,8 @@ class SceneDataBuilder {
 
 std::shared_ptr<const LloydState> make_lloyd_state(const LloydStepper& stepper,
                                                    std::uint64_t generation);
-std::shared_ptr<const VolumeLayers> make_volume_layers(const PreprocessResult& pre,
-                                                       const Grid& image_grid);
+std::shared_ptr<const VolumeLayers> make_volume_layers(
+    std::shared_ptr<const PreprocessResult> pre, const Grid& image_grid);
 std::shared_ptr<const MeshLayers> make_mesh_layers(const TetMesh& mesh,
                                                    const std::vector<Vec3>& exterior_poles);
 std::shared_ptr<const MeshMeasures> make_mesh_measures(const TetMesh& mesh);

@@ -76,7 +76,7 @@ std::vector<std::int32_t> voronoi_slice_labels(const LloydState& lloyd, const Vo
       c[ua] = cu;
       c[va] = cv;
       const std::size_t lin = vol.grid.linear(c[0], c[1], c[2]);
-      if (!vol.object.data[lin]) continue;
+      if (!vol.object->data[lin]) continue;
       const int u = cu + vol.offset[ua], v = cv + vol.offset[va];
       if (u < 0 || v < 0 || u >= width || v >= height) continue;
       voxels.push_back(std::int32_t(lin));
@@ -131,11 +131,11 @@ SliceImage compose_slice(const Image& image, const VolumeLayers* vol,
         c[va] = v - vol->offset[va];
         if (vol->grid.contains(c[0], c[1], c[2])) {
           const std::size_t lin = vol->grid.linear(c[0], c[1], c[2]);
-          inside[p] = vol->object.data[lin] != 0;
+          inside[p] = vol->object->data[lin] != 0;
           if (inside[p] && overlays.object) px = blend_over(px, kObjectTint);
           if (inside[p] && overlays.lfs) {
             Rgba8 lc = colormap_color(Colormap::Viridis,
-                                      normalize_value(vol->lfs_mm.data[lin], lfs_lo, lfs_hi));
+                                      normalize_value(vol->lfs_mm->data[lin], lfs_lo, lfs_hi));
             lc.a = kLfsAlpha;
             px = blend_over(px, lc);
           }
@@ -145,8 +145,8 @@ SliceImage compose_slice(const Image& image, const VolumeLayers* vol,
             cc.a = kCellAlpha;
             px = blend_over(px, cc);
           }
-          if (overlays.medial && vol->medial_axis.data[lin])
-            px = vol->medial_axis.data[lin] == 1 ? kInnerMedial : kOuterMedial;
+          if (overlays.medial && vol->medial_axis->data[lin])
+            px = vol->medial_axis->data[lin] == 1 ? kInnerMedial : kOuterMedial;
         }
       }
       color[p] = px;

@@ -1,5 +1,7 @@
 #include "surface_preview.h"
 
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -23,7 +25,7 @@ Mask display_mask(const Mask& object, std::size_t boundary_voxels, std::size_t m
   // Coarse voxel centres sit at the centres of their f³ blocks.
   coarse.origin = g.index_to_world({0.5 * (f - 1), 0.5 * (f - 1), 0.5 * (f - 1)});
   Mask out(coarse, 0);
-  for (int K = 0; K < dims[2]; ++K)
+  tbb::parallel_for(0, dims[2], [&](int K) {
     for (int J = 0; J < dims[1]; ++J)
       for (int I = 0; I < dims[0]; ++I) {
         int inside = 0, total = 0;
@@ -33,6 +35,7 @@ Mask display_mask(const Mask& object, std::size_t boundary_voxels, std::size_t m
               inside += object.at(i, j, k) != 0, ++total;
         out.at(I, J, K) = 2 * inside >= total ? 1 : 0;
       }
+  });
   return out;
 }
 

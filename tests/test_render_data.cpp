@@ -33,11 +33,12 @@ struct SliceFixture {
       for (int i = 2; i < 5; ++i) image.voxels.at(i, j, 1) = 7;
     vol.grid = g.sub_grid({1, 1, 0}, {5, 4, 3});
     vol.offset = {1, 1, 0};
-    vol.object = Mask(vol.grid, 0);
+    auto object = std::make_shared<Mask>(vol.grid, 0);
     for (int j = 1; j < 3; ++j)
-      for (int i = 1; i < 4; ++i) vol.object.at(i, j, 1) = 1;
-    vol.lfs_mm = Volume<float>(vol.grid, 2.0f);
-    vol.medial_axis = Mask(vol.grid, 0);
+      for (int i = 1; i < 4; ++i) object->at(i, j, 1) = 1;
+    vol.object = object;
+    vol.lfs_mm = std::make_shared<Volume<float>>(vol.grid, 2.0f);
+    vol.medial_axis = std::make_shared<Mask>(vol.grid, 0);
     vol.lfs_bounds = {1.0, 3.0};
   }
 };

@@ -208,7 +208,7 @@ int MeshOptimizer::run(const Progress& progress) {
   return n;
 }
 
-PassStats MeshOptimizer::statistics(int pass, bool full) const {
+PassStats MeshOptimizer::statistics(int pass, bool full) {
   const opt::WorkMesh& m = *work_;
   PassStats s;
   s.pass = pass;
@@ -220,31 +220,49 @@ PassStats MeshOptimizer::statistics(int pass, bool full) const {
     if (!opt::is_dead(m.tets[t])) qmin = std::min(qmin, m.quality[t]);
   s.min_quality = qmin;
   if (!full) return s;
+  std::array<std::array<double, 2>, 3> edges;
+  for (int k = 0; k < 3; ++k) edges[k] = table1_bin_edges(kShewchukMeasures[k]);
+  auto summary_of = [&](const Tet& tet) {
+    const TetFigures f = tet_figures(m.pos[tet[0]], m.pos[tet[1]], m.pos[tet[2]], m.pos[tet[3]]);
+    TetFigureSummary out;
+    out.min_dihedral = f.min_dihedral;
+    out.max_dihedral = f.max_dihedral;
+    for (int k = 0; k < 3; ++k) {
+      const double q = measure_of(f, kShewchukMeasures[k]);
+      out.bin[k] = q < edges[k][0] ? 0 : (q > edges[k][1] ? 2 : 1);
+    }
+    return out;
+  };
+  // With statistics after every pass, a slot's figures are kept and recomputed only when it is
+  // new or anything around it changed (a tet added or removed, a vertex moved) since the last
+  // statistics. Without (two statistics in all), nothing is kept: it would only cost memory.
+  if (pass_statistics_) {
+    const std::size_t known = figures_clock_ ? figures_.size() : 0;
+    figures_.resize(m.tets.size());
+    tbb::parallel_for(tbb::blocked_range<std::size_t>(0, m.tets.size(), 4096), [&](const auto& r) {
+      for (std::size_t t = r.begin(); t != r.end(); ++t)
+        if (!opt::is_dead(m.tets[t]) &&
+            (t >= known || m.changed_since(std::int32_t(t), figures_clock_)))
+          figures_[t] = summary_of(m.tets[t]);
+    });
+    figures_clock_ = m.clock;
+  }
   struct Acc {
     double min_d = 180, max_d = 0;
     std::array<std::size_t, 4> below{};
     std::array<std::array<std::size_t, 3>, 3> bins{};
   };
-  std::array<std::array<double, 2>, 3> edges;
-  for (int k = 0; k < 3; ++k) edges[k] = table1_bin_edges(kShewchukMeasures[k]);
   const Acc acc = tbb::parallel_reduce(
       tbb::blocked_range<std::size_t>(0, m.tets.size(), 4096), Acc{},
       [&](const tbb::blocked_range<std::size_t>& r, Acc a) {
         for (std::size_t t = r.begin(); t != r.end(); ++t) {
-          const Tet& tet = m.tets[t];
-          if (opt::is_dead(tet)) continue;
-          const Vec3 &p0 = m.pos[tet[0]], &p1 = m.pos[tet[1]], &p2 = m.pos[tet[2]],
-                     &p3 = m.pos[tet[3]];
-          const TetFigures f = tet_figures(p0, p1, p2, p3);
-          const double lo = f.min_dihedral, hi = f.max_dihedral;
-          a.min_d = std::min(a.min_d, lo);
-          a.max_d = std::max(a.max_d, hi);
+          if (opt::is_dead(m.tets[t])) continue;
+          const TetFigureSummary f = pass_statistics_ ? figures_[t] : summary_of(m.tets[t]);
+          a.min_d = std::min(a.min_d, f.min_dihedral);
+          a.max_d = std::max(a.max_d, f.max_dihedral);
           const double limits[4] = {5, 10, 15, 20};
-          for (int i = 0; i < 4; ++i) a.below[i] += lo < limits[i];
-          for (int k = 0; k < 3; ++k) {
-            const double q = measure_of(f, kShewchukMeasures[k]);
-            ++a.bins[k][q < edges[k][0] ? 0 : (q > edges[k][1] ? 2 : 1)];
-          }
+          for (int i = 0; i < 4; ++i) a.below[i] += f.min_dihedral < limits[i];
+          for (int k = 0; k < 3; ++k) ++a.bins[k][f.bin[k]];
         }
         return a;
       },

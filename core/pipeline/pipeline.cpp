@@ -157,7 +157,7 @@ void Pipeline::run_stage(Stage s, const Progress& progress) {
   }
   switch (s) {
     case Stage::preprocess:
-      preprocess_ = std::make_unique<PreprocessResult>(cvt::preprocess(
+      preprocess_ = std::make_shared<PreprocessResult>(cvt::preprocess(
           run_ == Run::once ? std::move(image_) : image_,
           preprocess_options(parameters_), progress));
       break;

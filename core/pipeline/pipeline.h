@@ -89,6 +89,10 @@ class Pipeline {
 
   // Results (null until the stage has run).
   const PreprocessResult* preprocess() const { return preprocess_.get(); }
+  // Stage 1's result shared, so a viewer can show its volumes without copying them. A
+  // repeatable pipeline never changes a result once made (a re-run makes a new one); only a
+  // once-run frees fields of it in place, and nobody shares those.
+  std::shared_ptr<const PreprocessResult> shared_preprocess() const { return preprocess_; }
   const SurfaceSamples* surface() const { return surface_.get(); }
   const LloydStepper* lloyd() const { return lloyd_.get(); }
   const ShallowResult* shallow() const { return shallow_.get(); }
@@ -121,7 +125,7 @@ class Pipeline {
   Parameters parameters_;
   bool done_[kStageCount] = {};
   std::uint64_t generation_[kStageCount] = {};
-  std::unique_ptr<PreprocessResult> preprocess_;
+  std::shared_ptr<PreprocessResult> preprocess_;
   std::unique_ptr<SurfaceSamples> surface_;
   std::unique_ptr<LloydStepper> lloyd_;
   std::unique_ptr<ShallowResult> shallow_;
