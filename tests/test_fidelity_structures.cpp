@@ -1,5 +1,6 @@
-// The pieces of the fidelity evaluation: marching cubes on z-slabs against one ITK run, exact
-// point–triangle distances and the triangle grid against brute force, and the distance samples.
+// The pieces of the fidelity evaluation: marching cubes by its table of ITK's cases against one
+// ITK run, exact point–triangle distances and the triangle grid against brute force, and the
+// distance samples.
 #include <gtest/gtest.h>
 #include <itkBinaryMask3DMeshSource.h>
 #include <itkImage.h>
@@ -26,7 +27,7 @@ using namespace cvt;
 namespace {
 
 // The surface of one ITK run over the whole mask padded by a voxel, vertices snapped to half
-// voxels and oriented outward: what marching_cubes returned before it ran on slabs.
+// voxels and oriented outward: what marching_cubes must give by its table of ITK's cases.
 TriangleSurface one_itk_run(const Mask& mask) {
   using Image = itk::Image<unsigned char, 3>;
   using Mesh = itk::Mesh<double, 3>;
@@ -95,10 +96,10 @@ Mask phantom_mask(const Phantom& p, const Vec3& spacing) {
 }
 
 void expect_same_surface_as_one_run(const Mask& mask, const std::string& name) {
-  const TriangleSurface slabs = marching_cubes(mask), one = one_itk_run(mask);
-  EXPECT_EQ(slabs.vertices.size(), one.vertices.size()) << name;
-  EXPECT_EQ(triangle_set(slabs), triangle_set(one)) << name;
-  const SurfaceTopology a = surface_topology(slabs.triangles, slabs.vertices.size());
+  const TriangleSurface table = marching_cubes(mask), one = one_itk_run(mask);
+  EXPECT_EQ(table.vertices.size(), one.vertices.size()) << name;
+  EXPECT_EQ(triangle_set(table), triangle_set(one)) << name;
+  const SurfaceTopology a = surface_topology(table.triangles, table.vertices.size());
   const SurfaceTopology b = surface_topology(one.triangles, one.vertices.size());
   EXPECT_TRUE(a.closed_manifold) << name;
   EXPECT_EQ(a.euler_characteristic, b.euler_characteristic) << name;
@@ -147,8 +148,8 @@ double reference_squared_distance(const Vec3& p, const Vec3& a, const Vec3& b, c
 
 }  // namespace
 
-TEST(SlabMarchingCubes, SameSurfaceAsOneItkRunOnPhantoms) {
-  // Fine z spacing so that every object spans several slabs.
+TEST(MarchingCubes, SameSurfaceAsOneItkRunOnPhantoms) {
+  // Fine z spacing so that every object spans many cube layers (built in parallel).
   const Vec3 spacing{0.7, 0.8, 0.35};
   for (const Phantom& p :
        {sphere_phantom({3, -2, 5}, 6.0), torus_phantom({1, 2, 3}, 8.0, 3.0),
@@ -159,8 +160,9 @@ TEST(SlabMarchingCubes, SameSurfaceAsOneItkRunOnPhantoms) {
   }
 }
 
-// Noise puts every cube configuration, ambiguous ones included, on the planes the slabs share.
-TEST(SlabMarchingCubes, SameSurfaceAsOneItkRunOnNoise) {
+// Noise puts every cube configuration, ambiguous ones included, in the mask and on the planes
+// the cube layers share.
+TEST(MarchingCubes, SameSurfaceAsOneItkRunOnNoise) {
   Grid g;
   g.dims = {19, 14, 53};
   g.spacing = {0.7, 0.8, 1.1};

@@ -258,7 +258,7 @@ FidelityReport compute_fidelity(const TetMesh& mesh, const Mask& object,
   FidelityReport rep;
   const Vec3& s = object.grid.spacing;
   progress.check_cancelled();
-  // The marching cubes, mostly serial within a slab, beside the mesh's boundary and volumes.
+  // The marching cubes beside the mesh's boundary and volumes.
   TriangleSurface reference, boundary;
   tbb::parallel_invoke([&] { reference = marching_cubes(object); },
                        [&] {

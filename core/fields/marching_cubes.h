@@ -17,10 +17,12 @@ struct TriangleSurface {
 };
 
 // The 0.5 iso-surface of the mask (non-zero = inside; treated as 0 outside the grid, so it is
-// closed) by marching cubes over the cubes whose corners are voxel centres: ITK's
-// itk::BinaryMask3DMeshSource on the box of the object padded by one voxel, run on slabs of 16
-// cube layers in parallel and joined (the triangles of one run over the whole mask). Vertices
-// sit at the midpoints of in/out voxel-centre edges, numbered in (z, y, x) order; ambiguous
+// closed) by marching cubes over the cubes whose corners are voxel centres: the surface of ITK's
+// itk::BinaryMask3DMeshSource on the box of the object padded by one voxel, made from a table of
+// ITK's triangles for each of the 256 cube cases (ITK run once per case), cube layers in
+// parallel. Vertices sit at the midpoints of in/out voxel-centre edges (and at some cube and
+// face centres, where ITK puts them), numbered in (z, y, x) order; triangles come cube by cube
+// in (z, y, x) order; ambiguous
 // faces keep the inside corners apart (the surface of the 6-connected object), so the result is
 // a closed, outward-oriented 2-manifold; world (mm). Masks up to 2^20 voxels along each axis.
 TriangleSurface marching_cubes(const Mask& mask);
