@@ -229,6 +229,33 @@ TEST(Validity, BoundaryFacesAgreeWithBoundaryTriangles) {
   EXPECT_GE(use.overlapping + use.shared_by_more_than_two, 4u);
 }
 
+// Exact face counts on a fan of tets around one triangle (0, 1, 2): apexes above and below.
+TEST(Validity, FaceUseCountsEachSharedTriangleOnce) {
+  TetMesh m;
+  m.vertices = {{0, 0, 0}, {1, 0, 0}, {0, 1, 0}, {0.2, 0.2, 1}, {0.2, 0.2, -1}, {0.3, 0.3, 2}};
+  const Tet above{0, 1, 2, 3}, below{0, 2, 1, 4}, above_again{0, 1, 2, 5};
+  m.tets = {above, below};
+  FaceUse use = classify_faces(m);  // a valid pair: the triangle is inside
+  EXPECT_EQ(use.shared_by_more_than_two, 0u);
+  EXPECT_EQ(use.overlapping, 0u);
+  EXPECT_EQ(use.boundary.size(), 6u);
+  m.tets = {above, above_again};  // both on the same side
+  use = classify_faces(m);
+  EXPECT_EQ(use.shared_by_more_than_two, 0u);
+  EXPECT_EQ(use.overlapping, 1u);
+  EXPECT_EQ(use.boundary.size(), 6u);
+  m.tets = {above, below, above_again};  // three tets on one triangle
+  use = classify_faces(m);
+  EXPECT_EQ(use.shared_by_more_than_two, 1u);
+  EXPECT_EQ(use.overlapping, 0u);
+  EXPECT_EQ(use.boundary.size(), 9u);
+  m.tets = {above, below, above_again, below};  // four, and the last two also share (0, 2, 4)…
+  use = classify_faces(m);
+  EXPECT_EQ(use.shared_by_more_than_two, 1u);
+  EXPECT_EQ(use.overlapping, 3u);  // … and (1, 2, 4), (0, 1, 4), each twice on one side
+  EXPECT_EQ(use.boundary.size(), 6u);
+}
+
 TEST(Validity, BrokenMeshesAreCaught) {
   Mask mask = box_mask(4);
   mask.at(1, 1, 1) = mask.at(2, 1, 1) = mask.at(1, 2, 1) = 1;

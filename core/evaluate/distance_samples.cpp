@@ -7,6 +7,8 @@
 #include <limits>
 #include <tuple>
 
+#include "base/memory.h"
+
 namespace cvt {
 namespace {
 
@@ -71,7 +73,8 @@ DistanceSamples::DistanceSamples(const TriangleSurface& surface, double h) : sur
 
   // (cube, triangle, piece) for every piece, sorted: the groups are the runs of one cube.
   constexpr int kBits = 21;  // per axis of the cube key
-  std::vector<std::tuple<std::uint64_t, std::uint32_t, std::uint32_t>> keyed(first.back());
+  std::vector<std::tuple<std::uint64_t, std::uint32_t, std::uint32_t>> keyed;
+  resize_large(keyed, first.back());  // large buffers are faulted in on all threads
   tbb::parallel_for(std::size_t(0), n, [&](std::size_t t) {
     std::size_t at = first[t];
     const std::uint32_t k = k_[t];
@@ -97,7 +100,8 @@ DistanceSamples::DistanceSamples(const TriangleSurface& surface, double h) : sur
   }
   for (std::size_t z = 1; z < layer.size(); ++z) layer[z] += layer[z - 1];
   {
-    std::vector<std::tuple<std::uint64_t, std::uint32_t, std::uint32_t>> by_layer(keyed.size());
+    std::vector<std::tuple<std::uint64_t, std::uint32_t, std::uint32_t>> by_layer;
+    resize_large(by_layer, keyed.size());
     std::vector<std::size_t> fill(layer.begin(), layer.end() - 1);
     for (const auto& e : keyed) by_layer[fill[std::size_t(std::get<0>(e) >> (2 * kBits))]++] = e;
     keyed.swap(by_layer);
@@ -107,7 +111,7 @@ DistanceSamples::DistanceSamples(const TriangleSurface& surface, double h) : sur
                      keyed.begin() + std::ptrdiff_t(layer[z + 1]),
                      [](const auto& a, const auto& b) { return std::get<0>(a) < std::get<0>(b); });
   });
-  members_.resize(keyed.size());
+  resize_large(members_, keyed.size());
   std::vector<std::uint64_t> cube;  // per group
   for (std::size_t m = 0; m < keyed.size(); ++m) {
     if (m == 0 || std::get<0>(keyed[m]) != std::get<0>(keyed[m - 1]))

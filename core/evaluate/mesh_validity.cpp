@@ -15,13 +15,6 @@
 namespace cvt {
 namespace {
 
-// One face of one tet, in the bucket of its smallest vertex, keyed by the other two.
-struct FaceRecord {
-  std::uint64_t key;     // middle and largest vertex index
-  std::uint32_t face;    // 4 · tet + local face
-  std::uint32_t parity;  // 1 when the outward face is an odd permutation of the sorted vertices
-};
-
 // Parity of the permutation taking (t0, t1, t2) to sorted order.
 std::uint8_t sort3(std::array<std::int32_t, 3>& t) {
   std::uint8_t swaps = 0;
@@ -136,59 +129,37 @@ FaceUse classify_faces(const TetMesh& mesh) {
       if (v < 0 || std::size_t(v) >= nv)
         throw InputError("mesh: tet " + std::to_string(t) + " references vertex " +
                          std::to_string(v) + " but there are " + std::to_string(nv) + " vertices");
-  // Faces bucketed by their smallest vertex (counting sort); a bucket holds the few faces around
-  // one vertex, matched by the other two vertices.
-  std::vector<std::uint32_t> start(nv + 1, 0);
-  for (const Tet& t : mesh.tets)
-    for (const Triangle& f : outward_faces(t))
-      ++start[std::size_t(std::min({f[0], f[1], f[2]})) + 1];
-  for (std::size_t v = 0; v < nv; ++v) start[v + 1] += start[v];
-  std::vector<FaceRecord> faces(4 * n);
-  {
-    std::vector<std::uint32_t> fill(start.begin(), start.end() - 1);
-    for (std::size_t t = 0; t < n; ++t) {
-      const auto outward = outward_faces(mesh.tets[t]);
-      for (std::size_t f = 0; f < 4; ++f) {
-        std::array<std::int32_t, 3> v = outward[f];
-        const std::uint32_t parity = sort3(v);
-        const std::uint64_t key = (std::uint64_t(std::uint32_t(v[1])) << 32) | std::uint32_t(v[2]);
-        faces[fill[std::size_t(v[0])]++] = {key, std::uint32_t(4 * t + f), parity};
-      }
-    }
-  }
-  // Per bucket: sort by key (ties by tet, so the result does not depend on scheduling) and
-  // classify each run of equal keys. Boundary faces are flagged by their (tet, face) id.
-  std::vector<char> once(4 * n, 0);
+  // Core's face matching (parallel): a face shared by two tets links them; one used by three
+  // or more links its tets in a cycle.
+  const std::vector<std::int64_t> neighbour = face_neighbours(nv, mesh.tets);
+  auto parity = [&](std::int64_t f) {
+    std::array<std::int32_t, 3> v = outward_faces(mesh.tets[std::size_t(f / 4)])[f % 4];
+    return sort3(v);
+  };
   using Counts = std::array<std::size_t, 2>;  // shared by more than two, overlapping
   const Counts counts = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, nv, 1024), Counts{0, 0},
+      tbb::blocked_range<std::size_t>(0, neighbour.size(), 4096), Counts{0, 0},
       [&](const auto& r, Counts c) {
-        for (std::size_t v = r.begin(); v != r.end(); ++v) {
-          const auto first = faces.begin() + start[v], last = faces.begin() + start[v + 1];
-          std::sort(first, last, [](const FaceRecord& a, const FaceRecord& b) {
-            return a.key != b.key ? a.key < b.key : a.face < b.face;
-          });
-          for (auto run = first; run != last;) {
-            auto end = run + 1;
-            while (end != last && end->key == run->key) ++end;
-            if (end - run == 1)
-              once[run->face] = 1;
-            else if (end - run == 2)
-              c[1] += run->parity == (run + 1)->parity;
-            else
-              ++c[0];
-            run = end;
+        for (std::size_t f = r.begin(); f != r.end(); ++f) {
+          const std::int64_t g = neighbour[f];
+          if (g < 0 || g < std::int64_t(f)) continue;  // boundary, or counted from g
+          if (neighbour[std::size_t(g)] == std::int64_t(f)) {
+            c[1] += parity(std::int64_t(f)) == parity(g);  // both tets on the same side
+          } else {
+            // A cycle of three or more, counted once: from its smallest face.
+            bool smallest = true;
+            for (std::int64_t h = g; h != std::int64_t(f) && smallest; h = neighbour[std::size_t(h)])
+              smallest = h > std::int64_t(f);
+            c[0] += smallest;
           }
         }
         return c;
       },
-      [](Counts a, const Counts& b) {
-        return Counts{a[0] + b[0], a[1] + b[1]};
-      });
+      [](Counts a, const Counts& b) { return Counts{a[0] + b[0], a[1] + b[1]}; });
   FaceUse use;
   use.shared_by_more_than_two = counts[0], use.overlapping = counts[1];
-  for (std::size_t f = 0; f < once.size(); ++f)
-    if (once[f]) use.boundary.push_back(outward_faces(mesh.tets[f / 4])[f % 4]);
+  for (std::size_t f = 0; f < neighbour.size(); ++f)
+    if (neighbour[f] < 0) use.boundary.push_back(outward_faces(mesh.tets[f / 4])[f % 4]);
   return use;
 }
 

@@ -4,6 +4,9 @@
 #include <cmath>
 #include <cstdlib>
 #include <limits>
+
+#include "base/memory.h"
+
 namespace cvt {
 
 double point_triangle_squared_distance(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
@@ -77,7 +80,7 @@ TriangleGrid::TriangleGrid(const TriangleSurface& surface, double cell_mm) : sur
 
   // Counting sort of (cell, triangle) pairs, triangles ascending within a cell.
   const std::size_t cells = std::size_t(n_[0]) * std::size_t(n_[1]) * std::size_t(n_[2]);
-  start_.assign(cells + 1, 0);
+  resize_large(start_, cells + 1);  // zeros; large buffers are faulted in on all threads
   auto for_each_cell = [&](const Triangle& t, auto&& f) {
     std::array<int, 3> c0, c1;
     for (int a = 0; a < 3; ++a) {
@@ -93,8 +96,10 @@ TriangleGrid::TriangleGrid(const TriangleSurface& surface, double cell_mm) : sur
   };
   for (const Triangle& t : tris) for_each_cell(t, [&](std::size_t c) { ++start_[c + 1]; });
   for (std::size_t c = 0; c < cells; ++c) start_[c + 1] += start_[c];
-  entries_.resize(start_[cells]);
-  std::vector<std::uint32_t> fill(start_.begin(), start_.end() - 1);
+  resize_large(entries_, start_[cells]);
+  std::vector<std::uint32_t> fill;
+  resize_large(fill, cells);
+  std::copy(start_.begin(), start_.end() - 1, fill.begin());
   for (std::size_t t = 0; t < tris.size(); ++t) {
     const Triangle& tri = tris[t];
     const Vec3 m = (v[tri[0]] + v[tri[1]] + v[tri[2]]) * (1.0 / 3);
