@@ -46,6 +46,8 @@ std::shared_ptr<const MeshLayers> make_mesh_layers(const TetMesh& mesh,
   m->neighbours = compute_tet_neighbours(m->mesh);
   m->exterior_poles = exterior_poles;
   m->measures = tet_measures(m->mesh);
+  m->vertices = mesh.vertices.size();
+  m->tets = mesh.tets.size();
   const double inf = std::numeric_limits<double>::infinity();
   m->lo = {inf, inf, inf};
   m->hi = {-inf, -inf, -inf};
@@ -157,12 +159,8 @@ std::shared_ptr<const SceneData> SceneDataBuilder::update(const Pipeline& pipeli
   const bool drew_stage5 = prev && prev->mesh && !prev->optimization && !ran[int(Stage::mesh)];
   pick(&SceneData::unoptimized, &PartGenerations::unoptimized, generated && optimized,
        ran[int(Stage::mesh)], [&] {
-         if (!drew_stage5) return make_mesh_measures(generated->mesh);
-         auto m = std::make_shared<MeshMeasures>();
-         m->vertices = prev->mesh->mesh.vertices.size();
-         m->tets = prev->mesh->mesh.tets.size();
-         m->measures = prev->mesh->measures;
-         return std::shared_ptr<const MeshMeasures>(std::move(m));
+         return drew_stage5 ? std::shared_ptr<const MeshMeasures>(prev->mesh)
+                            : make_mesh_measures(generated->mesh);
        });
   const bool evaluated = ran[int(Stage::evaluate)];
   pick(&SceneData::quality, &PartGenerations::quality, pipeline.quality() != nullptr, evaluated,

@@ -43,19 +43,20 @@ struct LloydState {
   bool converged = false;
 };
 
-// Per-tet values of every Measure, in enum order, for colouring and highlighting.
-struct MeshLayers {
-  TetMesh mesh;              // world mm
-  TetNeighbours neighbours;  // for the faces a clip exposes
-  std::vector<Vec3> exterior_poles;
-  std::array<std::vector<double>, kMeasureCount> measures;  // exactly as core bins them
-  Vec3 lo, hi;                                              // bounding box of the vertices
-};
-
-// Per-tet measures of a mesh that is not drawn (the stage-5 mesh beside the optimised one).
+// Per-tet values of every Measure, in enum order, exactly as core bins them: the stage-5 mesh's
+// beside the optimised one (for before/after figures), and every drawn mesh's.
 struct MeshMeasures {
   std::size_t vertices = 0, tets = 0;
   std::array<std::vector<double>, kMeasureCount> measures;
+};
+
+// A drawn mesh, with its measures for colouring and highlighting. A MeshMeasures, so that once
+// stage 6 runs, the stage-5 mesh's measures are the last snapshot's, shared.
+struct MeshLayers : MeshMeasures {
+  TetMesh mesh;              // world mm
+  TetNeighbours neighbours;  // for the faces a clip exposes
+  std::vector<Vec3> exterior_poles;
+  Vec3 lo, hi;  // bounding box of the vertices
 };
 
 // The snapshot that built each part (a part kept from an earlier snapshot keeps its number; 0:

@@ -195,6 +195,29 @@ TEST(Quality, EveryMeasureAtOnceEqualsEachOnItsOwn) {
   }
 }
 
+// The extremes alone (two angles, found by a pseudo-angle) equal the extremes of all six angles
+// (to 1e-9°: near-equal angles at 0° or 180° may swap) on random tets from regular to slivers,
+// caps, needles and flat ones.
+TEST(Quality, DihedralExtremesAloneEqualThoseOfAllSix) {
+  std::mt19937 rng(11);
+  std::uniform_real_distribution<double> u(-1, 1);
+  std::uniform_int_distribution<int> kind(0, 4);
+  for (int n = 0; n < 20000; ++n) {
+    Vec3 p[4];
+    for (Vec3& q : p) q = {u(rng), u(rng), u(rng)};
+    const int k = kind(rng);
+    if (k == 1) p[3] = (p[0] + p[1] + p[2]) * (1.0 / 3) + Vec3{0, 0, 1e-4 * u(rng)};  // sliver/cap
+    if (k == 2) p[3] = p[2] + (p[1] - p[2]) * 1e-5;                                   // needle
+    if (k == 3) p[3] = p[0] + (p[1] - p[0]) * 0.3 + (p[2] - p[0]) * 0.4;              // flat
+    if (k == 4) p[3] = p[2];                                                          // a face gone
+    const TetFigures all = tet_figures(p[0], p[1], p[2], p[3], true);
+    const TetFigures two = tet_figures(p[0], p[1], p[2], p[3], false);
+    ASSERT_NEAR(two.min_dihedral, all.min_dihedral, 1e-9) << n << " kind " << k;
+    ASSERT_NEAR(two.max_dihedral, all.max_dihedral, 1e-9) << n << " kind " << k;
+    for (int m = 0; m < 3; ++m) ASSERT_EQ(two.shewchuk[m], all.shewchuk[m]);
+  }
+}
+
 TEST(Validity, PhantomMeshesHaveTheRightTopology) {
   struct Case {
     Phantom phantom;

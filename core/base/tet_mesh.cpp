@@ -7,6 +7,8 @@
 #include <stdexcept>
 #include <string>
 
+#include "base/memory.h"
+
 namespace cvt {
 
 std::vector<std::int64_t> face_neighbours(std::size_t num_vertices, const std::vector<Tet>& tets) {
@@ -33,7 +35,8 @@ std::vector<std::int64_t> face_neighbours(std::size_t num_vertices, const std::v
     std::uint64_t key;
     std::int64_t face;
   };
-  std::vector<Entry> entries(num_faces);
+  std::vector<Entry> entries;
+  resize_large(entries, num_faces);  // large buffers are faulted in on all threads
   std::vector<std::int64_t> fill(bucket_start.begin(), bucket_start.end() - 1);
   tbb::parallel_for(std::size_t(0), tets.size(), [&](std::size_t t) {
     const auto faces = outward_faces(tets[t]);
@@ -49,7 +52,9 @@ std::vector<std::int64_t> face_neighbours(std::size_t num_vertices, const std::v
 
   // Faces with the same key in a bucket are the same triangle. Buckets are independent, so
   // they are sorted in parallel.
-  std::vector<std::int64_t> neighbour(num_faces, -1);
+  std::vector<std::int64_t> neighbour;
+  resize_large(neighbour, num_faces);
+  tbb::parallel_for(std::size_t(0), num_faces, [&](std::size_t f) { neighbour[f] = -1; });
   tbb::parallel_for(std::size_t(0), num_vertices, [&](std::size_t v) {
     const auto first = entries.begin() + bucket_start[v],
                last = entries.begin() + bucket_start[v + 1];

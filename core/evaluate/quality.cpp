@@ -14,6 +14,7 @@
 #include <string>
 
 #include "base/errors.h"
+#include "base/memory.h"
 
 namespace cvt {
 namespace {
@@ -59,7 +60,8 @@ double pow34(double x) {
 
 }  // namespace
 
-TetFigures tet_figures(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d) {
+TetFigures tet_figures(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d,
+                       bool all_dihedrals) {
   const Vec3 p[4] = {a, b, c, d};
   const double volume = dot(b - a, cross(c - a, d - a)) / 6.0;
   // N[i]: twice the area vector of the face opposite vertex i, all pointing the same way
@@ -69,13 +71,30 @@ TetFigures tet_figures(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& 
   double A[4], sum_a = 0, sum_a2 = 0, cross_sum = 0, min_l2 = kInf;
   for (int i = 0; i < 4; ++i) A[i] = 0.5 * norm(N[i]), sum_a += A[i], sum_a2 += A[i] * A[i];
   TetFigures f;
+  // Dihedral at edge e = ij, between the faces opposite k and l: π − angle(N_k, N_l).
+  auto dihedral = [&](int e) {
+    const int k = kEdge[5 - e][0], l = kEdge[5 - e][1];
+    return std::atan2(norm(cross(N[k], N[l])), -dot(N[k], N[l])) * kRadToDeg;
+  };
+  // Without all the angles: the edges of the extreme ones by a pseudo-angle, monotonic in the
+  // angle and as precise near 0° and 180° (s / (|c| + s) from the unnormalised sine and cosine).
+  int smallest = 0, largest = 0;
+  double pseudo_min = kInf, pseudo_max = -kInf;
+  bool degenerate = false;  // a face without area: then every angle, as with all_dihedrals
   for (int e = 0; e < 6; ++e) {
     const int i = kEdge[e][0], j = kEdge[e][1], k = kEdge[5 - e][0], l = kEdge[5 - e][1];
     const double l2 = squared_distance(p[i], p[j]);
     cross_sum += A[i] * A[j] * l2;
     min_l2 = std::min(min_l2, l2);
-    // Dihedral at edge ij, between the faces opposite k and l: π − angle(N_k, N_l).
-    f.dihedral[std::size_t(e)] = std::atan2(norm(cross(N[k], N[l])), -dot(N[k], N[l])) * kRadToDeg;
+    if (all_dihedrals) {
+      f.dihedral[std::size_t(e)] = dihedral(e);
+    } else {
+      const double sine = norm(cross(N[k], N[l])), cosine = -dot(N[k], N[l]);
+      const double q = sine / (std::abs(cosine) + sine), pseudo = cosine >= 0 ? q : 2 - q;
+      degenerate = degenerate || std::isnan(pseudo);
+      if (pseudo < pseudo_min) pseudo_min = pseudo, smallest = e;
+      if (pseudo > pseudo_max) pseudo_max = pseudo, largest = e;
+    }
   }
   // r_mc: the circumradius when the circumcentre is inside, else the general search.
   const Ball sphere = tet_ball(a, b, c, d);
@@ -88,8 +107,14 @@ TetFigures tet_figures(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& 
   f.shewchuk[0] = rmc > 0 ? volume / (rmc * rmc * rmc) : 0;
   f.shewchuk[1] = cross_sum > 0 ? volume * pow34(sum_a / cross_sum) : 0;
   f.shewchuk[2] = sum_a2 > 0 ? volume / pow34(0.25 * sum_a2) : 0;
-  f.min_dihedral = *std::min_element(f.dihedral.begin(), f.dihedral.end());
-  f.max_dihedral = *std::max_element(f.dihedral.begin(), f.dihedral.end());
+  if (degenerate)
+    for (int e = 0; e < 6; ++e) f.dihedral[std::size_t(e)] = dihedral(e);
+  if (all_dihedrals || degenerate) {
+    f.min_dihedral = *std::min_element(f.dihedral.begin(), f.dihedral.end());
+    f.max_dihedral = *std::max_element(f.dihedral.begin(), f.dihedral.end());
+  } else {
+    f.min_dihedral = dihedral(smallest), f.max_dihedral = dihedral(largest);
+  }
   f.radius_edge = min_l2 > 0 ? R / std::sqrt(min_l2) : kInf;
   return f;
 }
@@ -251,12 +276,12 @@ double tet_measure(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, M
 
 std::array<std::vector<double>, kMeasureCount> tet_measures(const TetMesh& mesh) {
   std::array<std::vector<double>, kMeasureCount> out;
-  for (auto& values : out) values.resize(mesh.tets.size());
+  for (auto& values : out) resize_large(values, mesh.tets.size());
   tbb::parallel_for(tbb::blocked_range<std::size_t>(0, mesh.tets.size(), 4096), [&](const auto& r) {
     for (std::size_t t = r.begin(); t != r.end(); ++t) {
       const Tet& tet = mesh.tets[t];
-      const TetFigures f =
-          tet_figures(vtx(mesh, tet[0]), vtx(mesh, tet[1]), vtx(mesh, tet[2]), vtx(mesh, tet[3]));
+      const TetFigures f = tet_figures(vtx(mesh, tet[0]), vtx(mesh, tet[1]), vtx(mesh, tet[2]),
+                                       vtx(mesh, tet[3]), false);
       for (int k = 0; k < kMeasureCount; ++k) out[std::size_t(k)][t] = measure_of(f, Measure(k));
     }
   });

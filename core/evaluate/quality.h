@@ -45,10 +45,13 @@ double tet_measure(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, M
 // Every per-tet figure at once (what tet_measure and dihedral_angles_deg each compute in full).
 struct TetFigures {
   double shewchuk[3];  // V/r_mc³, gradient error, condition number (not normalised)
-  std::array<double, 6> dihedral;
+  std::array<double, 6> dihedral{};
   double min_dihedral, max_dihedral, radius_edge;
 };
-TetFigures tet_figures(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d);
+// Without all_dihedrals, `dihedral` is left zero (unless a face has no area) and only the
+// extremes are computed, at the edges found by a pseudo-angle: two angles instead of six.
+TetFigures tet_figures(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d,
+                       bool all_dihedrals = true);
 double measure_of(const TetFigures& f, Measure m);
 
 // Every measure, one value per tet of `mesh`, indexed by Measure (parallel, each tet's figures

@@ -223,7 +223,8 @@ PassStats MeshOptimizer::statistics(int pass, bool full) {
   std::array<std::array<double, 2>, 3> edges;
   for (int k = 0; k < 3; ++k) edges[k] = table1_bin_edges(kShewchukMeasures[k]);
   auto summary_of = [&](const Tet& tet) {
-    const TetFigures f = tet_figures(m.pos[tet[0]], m.pos[tet[1]], m.pos[tet[2]], m.pos[tet[3]]);
+    const TetFigures f =
+        tet_figures(m.pos[tet[0]], m.pos[tet[1]], m.pos[tet[2]], m.pos[tet[3]], false);
     TetFigureSummary out;
     out.min_dihedral = f.min_dihedral;
     out.max_dihedral = f.max_dihedral;
