@@ -105,6 +105,13 @@ void Framebuffer::bind() const {
   glBindFramebuffer(GL_FRAMEBUFFER, fbo_.get());
 }
 
+void Framebuffer::blit_to_window() const {
+  glBindFramebuffer(GL_READ_FRAMEBUFFER, fbo_.get());
+  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, 0);
+  glBlitFramebuffer(0, 0, width_, height_, 0, 0, width_, height_, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+  glBindFramebuffer(GL_FRAMEBUFFER, 0);
+}
+
 std::vector<std::uint8_t> Framebuffer::read_rgba() const {
   const std::size_t row = std::size_t(width_) * 4;
   std::vector<std::uint8_t> bottom_up(row * height_), out(row * height_);

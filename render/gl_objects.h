@@ -71,7 +71,8 @@ class Texture2D {
   int width_ = 0, height_ = 0;
 };
 
-// An off-screen colour (RGBA8) + depth target, for screenshots at any size.
+// An off-screen colour (RGBA8) + depth target, for screenshots at any size and for keeping the
+// views' picture.
 class Framebuffer {
  public:
   // (Re)allocates when the size changes; throws std::runtime_error when incomplete.
@@ -79,6 +80,8 @@ class Framebuffer {
   void bind() const;
   // RGBA rows top first (GL reads bottom first, so rows are flipped).
   std::vector<std::uint8_t> read_rgba() const;
+  // Copies the colour into the window's framebuffer (same size), which is then bound.
+  void blit_to_window() const;
   int width() const { return width_; }
   int height() const { return height_; }
 

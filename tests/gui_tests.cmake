@@ -36,7 +36,9 @@ set(CVT_GUI_OUT ${CMAKE_CURRENT_BINARY_DIR}/gui)
 # The real liver (scripts/fetch-data): a 3D cut-away coloured by quality, and an axial slice
 # with the discrete Voronoi cells at 2x the window size.
 if(EXISTS ${CVT_LIVER})
+  # While the jobs run, the views' picture is re-shown rather than drawn again (view_cache.h).
   add_test(NAME test_gui_liver_cutaway COMMAND ${CVT_GUI_RUN}
+    --expect-output "^views: [0-9]+ frames drawn, [1-9][0-9]* re-shown"
     ${CVT_GUI_OUT}/liver_cutaway.png 1280 800 0.08 200
     ${CVT_LIVER} --run-all --view 3d --clip 0.5 --colour-by v_over_rmc3)
   add_test(NAME test_gui_liver_voronoi COMMAND ${CVT_GUI_RUN}

@@ -82,6 +82,7 @@ void SceneRenderer::sync(const std::shared_ptr<const render::SceneData>& scene_p
   if (mesh_key != mesh_key_) {
     mesh_key_ = std::move(mesh_key);
     rebuild_mesh(*scene, view);
+    ++revision_;
   }
   if (built.volumes != surface_key_) {
     surface_key_ = built.volumes;
@@ -89,6 +90,7 @@ void SceneRenderer::sync(const std::shared_ptr<const render::SceneData>& scene_p
     if (scene->volumes)
       render::append_surface(scene->volumes->object_surface, render::MeshColoring{}.surface, soup);
     view3d_.set_object_surface(soup);
+    ++revision_;
   }
   PointsKey points_key{built.surface,
                        lloyd_generation,
@@ -100,6 +102,7 @@ void SceneRenderer::sync(const std::shared_ptr<const render::SceneData>& scene_p
   if (points_key != points_key_) {
     points_key_ = std::move(points_key);
     rebuild_points(*scene, lloyd.get(), view);
+    ++revision_;
   }
   slice_index = effective_slice_index(view, *scene);
   SliceKey slice_key{built.image,      built.volumes, view.overlays.voronoi ? lloyd_generation : 0,
@@ -163,6 +166,7 @@ void SceneRenderer::request_slice(const std::shared_ptr<const render::SceneData>
 }
 
 void SceneRenderer::upload_slice(render::SliceView&& picture) {
+  ++revision_;
   slice_view_.set_image(picture.image);
   slice_view_.set_points(picture.points);
   slice_points = picture.points.size();
@@ -179,10 +183,12 @@ void SceneRenderer::upload_slice(render::SliceView&& picture) {
 }
 
 void SceneRenderer::fit_3d() {
+  ++revision_;
   if (have_box_) camera.fit(to_glm(box_lo_), to_glm(box_hi_), aspect_3d_);
 }
 
 void SceneRenderer::fit_slice(const Rect& rect) {
+  ++revision_;
   if (rect.empty() || !has_slice) return;
   slice_transform.fit(slice_view_.width_mm(), slice_view_.height_mm(), rect.w, rect.h);
 }

@@ -3,6 +3,7 @@
 // their rectangles, on screen or into a screenshot framebuffer at any scale.
 #pragma once
 
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <tuple>
@@ -32,6 +33,9 @@ class SceneRenderer {
             const ViewRects& rects);
   // True while a slice picture is being composed (scripted runs wait for it).
   bool busy() const { return composer_.busy(); }
+  // Counts the changes to what draw() shows that are not in its arguments: a buffer rebuilt,
+  // a slice picture uploaded, a camera fitted (the mouse moves the cameras only on input).
+  std::uint64_t revision() const { return revision_; }
   // Clears the bound framebuffer and draws the views into `rects` (window units relative to
   // the framebuffer's top-left corner, scaled by target.scale).
   void draw(const ViewSettings& view, const ViewRects& rects, const DrawTarget& target,
@@ -57,6 +61,7 @@ class SceneRenderer {
   void upload_slice(render::SliceView&& view);
   const render::ClipPlane* clip_plane(const ViewSettings& view);
 
+  std::uint64_t revision_ = 0;
   std::shared_ptr<render::Programs> programs_;
   render::View3D view3d_;
   render::SliceView2D slice_view_;

@@ -38,6 +38,7 @@ struct ViewSettings {
   float point_size_px = 4.0f;
   render::TetSelection highlight;       // tets selected in the quality panel
   bool transparent_background = false;  // for screenshots
+  bool operator==(const ViewSettings&) const = default;
 };
 
 // Which kinds of points the 3D view draws. With a mesh on screen, B and I are its vertices
@@ -82,9 +83,11 @@ struct Rect {
   float x = 0, y = 0, w = 0, h = 0;
   bool empty() const { return w <= 0 || h <= 0; }
   bool contains(float px, float py) const { return px >= x && py >= y && px < x + w && py < y + h; }
+  bool operator==(const Rect&) const = default;
 };
 struct ViewRects {
   Rect view3d, slice;  // an empty rect: that view is hidden
+  bool operator==(const ViewRects&) const = default;
 };
 // 3D only, slice only, or both in `area`: side by side (3D left) in a wide area, one above
 // the other (3D on top) in a tall one.

@@ -19,6 +19,7 @@
 #include "frame_stats.h"
 #include "input_actions.h"
 #include "screenshot.h"
+#include "view_cache.h"
 
 namespace cvt::gui {
 namespace {
@@ -242,6 +243,7 @@ int run_viewer(const ViewerOptions& options) {
       exit_code = 1;
     }
     render::Framebuffer screenshot_fbo;
+    ViewCache view_cache;
     MouseControl mouse;
     if (!options.preset.empty() && !session.load_preset(options.preset) && scripted) {
       std::fprintf(stderr, "cvtmesh-gui: %s\n", session.messages.back().text.c_str());
@@ -328,7 +330,10 @@ int run_viewer(const ViewerOptions& options) {
       const double sync_ms = 1000.0 * (now_s() - sync_start);
       if (ui.fit_3d) renderer->fit_3d(), ui.fit_3d = false;
       if (ui.fit_slice) renderer->fit_slice(rects.slice), ui.fit_slice = false;
-      renderer->draw(view, rects, {fb_w, fb_h, float(fb_w) / float(std::max(win_w, 1))}, false);
+      // While a job runs and the user does nothing, the views' picture is kept (view_cache.h).
+      view_cache.draw(*renderer, session.scene_ptr(), session.lloyd(), view, rects,
+                      {fb_w, fb_h, float(fb_w) / float(std::max(win_w, 1))},
+                      session.busy() && !events.input);
       ImGui_ImplOpenGL3_RenderDrawData(ImGui::GetDrawData());
 
       if (ui.screenshot_request) {
@@ -390,6 +395,9 @@ int run_viewer(const ViewerOptions& options) {
           int(sc.optimization->history.size()) - 1, before.tets, after.tets,
           before.min_dihedral_deg, after.min_dihedral_deg, before.below_10, after.below_10);
     }
+    if (scripted && exit_code == 0)
+      std::printf("views: %llu frames drawn, %llu re-shown while jobs ran\n",
+                  (unsigned long long)view_cache.drawn, (unsigned long long)view_cache.reshown);
     if (options.benchmark_frames) {
       std::printf("window %dx%d, %s\n", options.width, options.height,
                   reinterpret_cast<const char*>(glGetString(GL_RENDERER)));
