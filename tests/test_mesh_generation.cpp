@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
 
+#include "io/image_io.h"
 #include "meshing/mesh_generation.h"
 
 #include "phantoms.h"
@@ -88,6 +90,35 @@ TEST(MeshGeneration, SameInputSameMesh) {
     ASSERT_TRUE(a.mesh.vertices[i] == b.mesh.vertices[i]) << i;
   expect_valid(a.quality);
   EXPECT_EQ(a.quality.validity.boundary.components, 2u);  // two spheres 1.5 mm apart
+}
+
+// Rule 3's fallback on its own: with no rounds of sample deletion, peeling alone must leave the
+// liver's boundary (which pinches: the rounds delete samples there) a closed 2-manifold.
+TEST(MeshGeneration, PeelingAloneRepairsTheLiversPinches) {
+  const std::string path = CVTMESH_SOURCE_DIR "/data/liver.inr.gz";
+  if (!std::filesystem::exists(path)) GTEST_SKIP() << "no " << path;
+  Pipeline pipe;
+  pipe.set_image(std::make_shared<Image>(read_image(path)));
+  pipe.run_through(Stage::shallow);
+  MeshGenerationOptions generation = mesh_options(pipe.parameters());
+  FidelityRefinementOptions refinement = refinement_options(pipe.parameters());
+  refinement.max_rounds = 0;
+  auto mesh = [&] {
+    return build_refined_mesh(*pipe.preprocess(), pipe.surface()->world,
+                              pipe.shallow()->kept_world, generation, refinement);
+  };
+  const RefinedMesh rounds = mesh();
+  EXPECT_FALSE(rounds.pinched_samples.empty());
+  EXPECT_TRUE(rounds.repair.manifold);
+  generation.max_pinch_passes = 0;
+  const RefinedMesh peeled = mesh();
+  EXPECT_TRUE(peeled.pinched_samples.empty());
+  EXPECT_GT(peeled.repair.edge_fans_removed + peeled.repair.vertex_fans_removed, 0u);
+  EXPECT_TRUE(peeled.repair.manifold);
+  const QualityReport q = compute_quality(peeled.mesh);
+  expect_valid(q);
+  EXPECT_EQ(q.validity.boundary.components,
+            compute_quality(rounds.mesh).validity.boundary.components);
 }
 
 namespace {
