@@ -1,5 +1,7 @@
 #include "view_cache.h"
 
+#include <stdexcept>
+
 namespace cvt::gui {
 
 void ViewCache::draw(SceneRenderer& renderer, const std::shared_ptr<const render::SceneData>& scene,
@@ -8,18 +10,23 @@ void ViewCache::draw(SceneRenderer& renderer, const std::shared_ptr<const render
                      bool reuse) {
   const Key key{renderer.revision(), scene.get(), lloyd.get(), view, rects, target.width,
                 target.height};
-  if (!reuse) {
+  auto draw_afresh = [&] {
     kept_.reset();
     renderer.draw(view, rects, target, false);
     ++drawn;
-    return;
-  }
+  };
+  if (!reuse || broken_) return draw_afresh();
   if (kept_ == key) {
     picture_.blit_to_window();
     ++reshown;
     return;
   }
-  picture_.ensure(target.width, target.height);
+  try {
+    picture_.ensure(target.width, target.height);
+  } catch (const std::runtime_error&) {  // no off-screen target here: always draw afresh
+    broken_ = true;
+    return draw_afresh();
+  }
   picture_.bind();
   renderer.draw(view, rects, target, false);
   picture_.blit_to_window();

@@ -27,6 +27,7 @@ class ViewCache {
   using Key = std::tuple<std::uint64_t, const void*, const void*, ViewSettings, ViewRects, int, int>;
   render::Framebuffer picture_;
   std::optional<Key> kept_;
+  bool broken_ = false;  // the off-screen target could not be made
 };
 
 }  // namespace cvt::gui
