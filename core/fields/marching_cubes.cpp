@@ -7,7 +7,6 @@
 #include <itkImage.h>
 #include <itkMesh.h>
 #include <tbb/blocked_range.h>
-#include <tbb/enumerable_thread_specific.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_reduce.h>
 #include <tbb/parallel_sort.h>
@@ -147,24 +146,30 @@ TriangleSurface marching_cubes(const Mask& mask) {
     for (int i = 0; i < box.hi[0] - box.lo[0]; ++i) row[std::size_t(i) + 1] = in[i] != 0;
   };
   // Per cube layer, in parallel: its vertices' keys, sorted, and its triangles indexing them.
-  // A vertex key of layer k has doubled coordinates x ≤ 2 cubes[0], y ≤ 2 cubes[1] and z in
-  // {2k, 2k + 1, 2k + 2}, so a dense table of that slab numbers each vertex once.
+  // A vertex of cube row j in layer k has doubled coordinates x ≤ 2 cubes[0], y in {2j, 2j + 1,
+  // 2j + 2} and z in {2k, 2k + 1, 2k + 2}, so a window of 3 × 3 rows numbers each vertex once;
+  // row 2j + 2 becomes the next cube row's 2j.
   struct Layer {
     std::vector<std::uint64_t> keys;
     std::vector<Triangle> triangles;
   };
   std::vector<Layer> layers(static_cast<std::size_t>(cubes[2]));
-  const std::size_t kx = 2 * std::size_t(cubes[0]) + 1, ky = 2 * std::size_t(cubes[1]) + 1;
-  tbb::enumerable_thread_specific<std::vector<std::int32_t>> dense_of_thread(
-      [&] { return std::vector<std::int32_t>(3 * kx * ky, -1); });
+  const std::size_t kx = 2 * std::size_t(cubes[0]) + 1;
   tbb::parallel_for(0, cubes[2], [&](int k) {
     Layer& out = layers[std::size_t(k)];
-    std::vector<std::int32_t>& dense = dense_of_thread.local();
-    std::vector<std::size_t> used;  // dense slots to clear afterwards
+    std::vector<std::int32_t> window(9 * kx, -1);  // (z, y) row (3 z + y) of the window
+    auto row_of = [&](std::size_t z, std::size_t y) {
+      return window.begin() + std::ptrdiff_t((3 * z + y) * kx);
+    };
     std::array<std::vector<std::uint8_t>, 4>
         rows;  // (j, k), (j + 1, k), (j, k + 1), (j + 1, k + 1)
     for (auto& r : rows) r.resize(std::size_t(cubes[0]) + 1);
     for (int j = 0; j < cubes[1]; ++j) {
+      if (j > 0)
+        for (std::size_t z = 0; z < 3; ++z) {
+          std::copy(row_of(z, 2), row_of(z, 2) + std::ptrdiff_t(kx), row_of(z, 0));
+          std::fill(row_of(z, 1), row_of(z, 1) + std::ptrdiff_t(2 * kx), -1);
+        }
       for (int r = 0; r < 4; ++r) padded_row(j + (r & 1), k + (r >> 1), rows[std::size_t(r)]);
       // Corner bit b is row b >> 1 at x offset b & 1: stepping along x, the upper-x corners
       // become the lower-x ones.
@@ -180,21 +185,19 @@ TriangleSurface marching_cubes(const Mask& mask) {
           Triangle tri;
           for (int v = 0; v < 3; ++v) {
             const auto& o = t.corner[std::size_t(v)];
-            const std::size_t x = std::size_t(2 * i + o[0]), y = std::size_t(2 * j + o[1]),
-                              z = o[2];
-            const std::size_t slot = (z * ky + y) * kx + x;
-            if (dense[slot] < 0) {
-              dense[slot] = std::int32_t(out.keys.size());
-              out.keys.push_back(pack_key(x, y, std::uint64_t(2 * k) + z));
-              used.push_back(slot);
+            const std::size_t x = std::size_t(2 * i + o[0]);
+            std::int32_t& id = row_of(o[2], o[1])[std::ptrdiff_t(x)];
+            if (id < 0) {
+              id = std::int32_t(out.keys.size());
+              out.keys.push_back(
+                  pack_key(x, std::uint64_t(2 * j + o[1]), std::uint64_t(2 * k + o[2])));
             }
-            tri[std::size_t(v)] = dense[slot];
+            tri[std::size_t(v)] = id;
           }
           out.triangles.push_back(tri);
         }
       }
     }
-    for (std::size_t slot : used) dense[slot] = -1;
     // Renumber the layer's vertices in key order.
     std::vector<std::int32_t> order(out.keys.size());
     std::iota(order.begin(), order.end(), 0);
