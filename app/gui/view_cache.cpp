@@ -8,8 +8,9 @@ void ViewCache::draw(SceneRenderer& renderer, const std::shared_ptr<const render
                      const std::shared_ptr<const render::LloydState>& lloyd,
                      const ViewSettings& view, const ViewRects& rects, const DrawTarget& target,
                      bool reuse) {
-  const Key key{renderer.revision(), scene.get(), lloyd.get(), view, rects, target.width,
-                target.height};
+  // Snapshots and Lloyd states by their numbers, never their addresses (scene_data.h).
+  const Key key{renderer.revision(), scene ? scene->generation : 0, lloyd ? lloyd->generation : 0,
+                view, rects, target.width, target.height};
   auto draw_afresh = [&] {
     kept_.reset();
     renderer.draw(view, rects, target, false);

@@ -24,7 +24,8 @@ class ViewCache {
   std::uint64_t drawn = 0, reshown = 0;
 
  private:
-  using Key = std::tuple<std::uint64_t, const void*, const void*, ViewSettings, ViewRects, int, int>;
+  using Key = std::tuple<std::uint64_t, std::uint64_t, std::uint64_t, ViewSettings, ViewRects, int,
+                         int>;
   render::Framebuffer picture_;
   std::optional<Key> kept_;
   bool broken_ = false;  // the off-screen target could not be made
