@@ -5,9 +5,11 @@
 
 #include "commands.h"
 #include "base/errors.h"
+#include "base/huge_page_malloc.h"
 #include "signal_cancel.h"
 
 int main(int argc, char** argv) {
+  cvt::reexec_with_huge_page_malloc(argv);
   CLI::App app{"cvtmesh: CVT-based Delaunay tetrahedral meshes from 3D medical images"};
   app.require_subcommand(1);
   cvt::cli::add_info_command(app);

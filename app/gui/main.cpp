@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "base/huge_page_malloc.h"
 #include "input_actions.h"
 #include "viewer.h"
 
@@ -20,6 +21,7 @@ bool parse_size(const std::string& text, int& w, int& h) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  cvt::reexec_with_huge_page_malloc(argv);
   using namespace cvt::gui;
   CLI::App app{"cvtmesh-gui: view and drive the cvtmesh pipeline (interactive or scripted)"};
   ViewerOptions o;
