@@ -191,9 +191,34 @@ class Optimize(unittest.TestCase):
             self.assertFalse(os.path.exists(out))
 
 
+class Skull(unittest.TestCase):
+    """The skull CT (iso 2.9): the cranial cavity is as large as the bone, so the default keeps
+    it (filling it made a solid head of twice the bone's volume)."""
+
+    def test_keeps_its_cavity(self):
+        image = os.path.join(SOURCE, "data", "skull_2.9.inr")
+        self.assertTrue(os.path.exists(image), "run scripts/fetch-data first")
+        with tempfile.TemporaryDirectory() as tmp:
+            mesh, report = os.path.join(tmp, "skull.mesh"), os.path.join(tmp, "r.json")
+            r = run("mesh", image, "--iso", "2.9", "-o", mesh, "--report", report, "-q",
+                    "--evaluate")
+            self.assertEqual(r.returncode, 0, r.stderr)
+            with open(report) as f:
+                rep = json.load(f)
+        pre = rep["preprocess"]
+        self.assertEqual((pre["cavities_kept"], pre["cavities_filled"]), (1, 0))
+        self.assertGreater(pre["cavity_voxels_kept"], 10000)
+        self.assertTrue(rep["quality"]["validity"]["valid"])
+        # Against the bone alone (the evaluation's object keeps the cavity too): the volume
+        # within a few percent, not doubled, and no place farther off than a voxel.
+        fid = rep["fidelity"]
+        self.assertLess(abs(fid["volume_error_percent"]), 3.0)
+        self.assertLess(fid["hausdorff_mm"], 3.95)  # the largest spacing
+
+
 class QualityFidelity(unittest.TestCase):
     def test_quality_image_agrees_with_the_run_report(self):
-        # A ball with an enclosed cavity and a far speck, so the clean-up (fill cavities, drop
+        # A ball with a small enclosed cavity and a far speck, so the clean-up (fill cavities, drop
         # small components) changes the object: `quality --image` must judge against the same
         # cleaned object as the run's own evaluation, with the default clean-up and without it.
         n = 40
@@ -203,7 +228,7 @@ class QualityFidelity(unittest.TestCase):
                 for x in range(n):
                     r2 = (x - 22) ** 2 + (y - 22) ** 2 + (z - 22) ** 2
                     speck = max(x, y, z) <= 3 and min(x, y, z) >= 2
-                    voxels[x + n * (y + n * z)] = 1 if 9 < r2 <= 144 or speck else 0
+                    voxels[x + n * (y + n * z)] = 1 if 4 < r2 <= 144 or speck else 0
         with tempfile.TemporaryDirectory() as tmp:
             image = os.path.join(tmp, "ball.nrrd")
             with open(image, "wb") as f:

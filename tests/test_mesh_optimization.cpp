@@ -271,10 +271,8 @@ TEST(MeshOptimization, TwoSpheresKeepTwoComponentsAndTheirShape) {
 }
 
 TEST(MeshOptimization, HollowSphereKeepsItsCavity) {
-  Parameters params;
-  params.fill_cavities = false;
   const Optimised o =
-      optimise_phantom(hollow_sphere_phantom({1, 0, -1}, 5.0, 10.0), {0.5, 0.55, 0.9}, params);
+      optimise_phantom(hollow_sphere_phantom({1, 0, -1}, 5.0, 10.0), {0.5, 0.55, 0.9});
   const QualityReport q = expect_improved(o.before, o.after, o.result, 0.5);
   EXPECT_EQ(q.validity.boundary.euler_characteristic, 4);
   EXPECT_EQ(q.validity.boundary.components, 2u);

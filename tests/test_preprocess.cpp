@@ -181,26 +181,38 @@ TEST(ObjectSelection, LabelsIsoAndErrors) {
   EXPECT_THROW(parse_label_list("1,x"), InputError);
 }
 
-TEST(Cleanup, FillsCavitiesAndDropsSpecks) {
+// A shell's cavity is an eighth of the ball (a seventh of the shell): too large to fill by
+// default, so the shell keeps both boundaries; filled only when the user allows cavities that
+// large.
+TEST(Cleanup, KeepsALargeCavityAndDropsSpecks) {
   const Phantom p = hollow_sphere_phantom({0, 0, 0}, 4.0, 8.0);
   const Grid g = grid_around(p, {1, 1, 1}, rotation_matrix({0, 0, 1}, 0));
   Image img = rasterize(p, g);
   img.voxels.at(1 + 2, 2, 2) = 1;  // a speck far from the shell, inside the margin
   ObjectSelection sel;
   Mask keep = select_object(img, sel);
-  Mask cleaned = keep;
+  Mask shell = keep, cleaned = keep;
   CleanupOptions off;
   off.remove_small_components = false;
   off.fill_cavities = false;
   const CleanupReport none = clean_object(keep, off);
   EXPECT_EQ(none.components, 2);
-  EXPECT_EQ(none.cavities_filled, 0);
-  const CleanupReport rep = clean_object(cleaned, CleanupOptions{});
+  EXPECT_EQ(none.cavities_filled + none.cavities_kept, 0);
+  const CleanupReport by_default = clean_object(shell, CleanupOptions{});
+  EXPECT_EQ(by_default.components_removed, 1);
+  EXPECT_EQ(by_default.cavities_filled, 0);
+  EXPECT_EQ(by_default.cavities_kept, 1);
+  std::vector<int> labels;
+  EXPECT_EQ(label_components(shell, 0, labels).size(), 2u);  // outside and the cavity
+  CleanupOptions fill_all;
+  fill_all.max_cavity_fraction = 1;
+  const CleanupReport rep = clean_object(cleaned, fill_all);
   EXPECT_EQ(rep.components, 2);
   EXPECT_EQ(rep.components_removed, 1);
   EXPECT_EQ(rep.voxels_removed, 1u);
   EXPECT_EQ(rep.cavities_filled, 1);
-  std::vector<int> labels;
+  EXPECT_EQ(rep.cavities_kept, 0);
+  EXPECT_EQ(rep.voxels_filled, by_default.voxels_kept);
   EXPECT_EQ(label_components(cleaned, 1, labels).size(), 1u);
   EXPECT_EQ(label_components(cleaned, 0, labels).size(), 1u);  // no cavity left
   // The filled voxels are exactly those within the inner radius.
@@ -208,6 +220,34 @@ TEST(Cleanup, FillsCavitiesAndDropsSpecks) {
   const std::size_t after = std::count(cleaned.data.begin(), cleaned.data.end(), 1);
   EXPECT_EQ(after, before - 1 + rep.voxels_filled);
   EXPECT_NEAR(double(rep.voxels_filled), 4.0 / 3.0 * kPi * 64.0, 0.15 * 4.0 / 3.0 * kPi * 64.0);
+}
+
+// A cavity is filled when it holds at most max_cavity_fraction of the object's voxels (the
+// specks already dropped), and kept when it holds one voxel more than that.
+TEST(Cleanup, FillsACavityUpToTheFractionOfTheObject) {
+  const Phantom p = hollow_sphere_phantom({0, 0, 0}, 1.6, 8.0);
+  const Grid g = grid_around(p, {1, 1, 1}, rotation_matrix({0, 0, 1}, 0));
+  const Mask object = select_object(rasterize(p, g), ObjectSelection{});
+  CleanupOptions off;
+  off.fill_cavities = false;
+  Mask probe = object;
+  clean_object(probe, off);
+  std::vector<int> labels;
+  const std::vector<std::size_t> background = label_components(probe, 0, labels);
+  ASSERT_EQ(background.size(), 2u);
+  const double cavity = double(std::min(background[0], background[1]));
+  const double voxels = double(std::count(probe.data.begin(), probe.data.end(), 1));
+  EXPECT_LT(cavity / voxels, 0.01);  // small: the default fills it
+  Mask by_default = object;
+  EXPECT_EQ(clean_object(by_default, CleanupOptions{}).cavities_filled, 1);
+  for (const double extra : {0.0, -1.0}) {
+    Mask m = object;
+    CleanupOptions o;
+    o.max_cavity_fraction = (cavity + extra) / voxels;
+    const CleanupReport r = clean_object(m, o);
+    EXPECT_EQ(r.cavities_filled, extra == 0 ? 1 : 0) << extra;
+    EXPECT_EQ(r.cavities_kept, extra == 0 ? 0 : 1) << extra;
+  }
 }
 
 TEST(Preprocess, BoundaryVoxelsTouchBackground) {

@@ -58,8 +58,15 @@ std::vector<ParameterSpec> make_registry() {
        .tooltip = "Smallest component kept, as a fraction of the largest (0–1).", .lo = 0, .hi = 1,
        .defines_object = true, .ref = top<&P::min_component_fraction>},
       {.key = "fill_cavities", .cli = "fill-cavities", .label = "fill cavities",
-       .stage = S::preprocess, .tooltip = "Enclosed background becomes object.",
+       .stage = S::preprocess,
+       .tooltip = "Enclosed background (a cavity) becomes object when it is small: see the "
+                  "fraction below.",
        .defines_object = true, .ref = top<&P::fill_cavities>},
+      {.key = "max_cavity_fraction", .cli = "max-cavity-fraction", .label = "max cavity",
+       .stage = S::preprocess,
+       .tooltip = "Largest cavity filled, as a fraction of the object's volume (≥ 0); larger "
+                  "ones stay holes, as a skull's cranial cavity must. A large value fills all.",
+       .lo = 0, .defines_object = true, .ref = top<&P::max_cavity_fraction>},
       // Stage 1: fields.
       {.key = "smoothing_sigma_mm", .cli = "smoothing-sigma", .label = "smoothing σ", .unit = "mm",
        .stage = S::preprocess,

@@ -28,6 +28,7 @@ struct Parameters {
   bool remove_small_components = true;
   double min_component_fraction = 0.01;
   bool fill_cavities = true;
+  double max_cavity_fraction = 0.01;
   double smoothing_sigma_mm = 0;
   double medial_min_separation_mm = 0;
   double medial_min_angle_deg = 120;

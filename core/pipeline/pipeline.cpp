@@ -23,6 +23,7 @@ PreprocessOptions preprocess_options(const Parameters& p) {
   o.cleanup.remove_small_components = p.remove_small_components;
   o.cleanup.min_component_fraction = p.min_component_fraction;
   o.cleanup.fill_cavities = p.fill_cavities;
+  o.cleanup.max_cavity_fraction = p.max_cavity_fraction;
   o.smoothing_sigma_mm = p.smoothing_sigma_mm;
   o.medial_axis.min_separation_mm = p.medial_min_separation_mm;
   o.medial_axis.min_angle_deg = p.medial_min_angle_deg;

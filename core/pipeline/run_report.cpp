@@ -59,7 +59,10 @@ nlohmann::json run_report(const Pipeline& pipe) {
                        {"lfs_max_mm", pre->lfs_bounds.max_mm},
                        {"components", pre->cleanup.components},
                        {"components_removed", pre->cleanup.components_removed},
-                       {"cavities_filled", pre->cleanup.cavities_filled}};
+                       {"cavities_filled", pre->cleanup.cavities_filled},
+                       {"cavity_voxels_filled", pre->cleanup.voxels_filled},
+                       {"cavities_kept", pre->cleanup.cavities_kept},
+                       {"cavity_voxels_kept", pre->cleanup.voxels_kept}};
   }
   if (const LloydStepper* lloyd = pipe.lloyd()) {
     json its = json::array();

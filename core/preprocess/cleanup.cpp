@@ -108,6 +108,7 @@ std::vector<std::size_t> label_components(const Mask& mask, unsigned char value,
 
 CleanupReport clean_object(Mask& mask, const CleanupOptions& options) {
   CleanupReport report;
+  std::size_t object_voxels = 0;  // after the specks are dropped
   // Object components: sizes from their runs; small ones are cleared run by run.
   {
     const Runs r = find_runs(mask, 1);
@@ -129,8 +130,11 @@ CleanupReport clean_object(Mask& mask, const CleanupOptions& options) {
       for (std::size_t i = 0; i < r.runs.size(); ++i)
         if (drop[id[i]]) fill(mask, r.runs[i], 0);
     }
+    for (std::size_t s : size) object_voxels += s;
+    object_voxels -= report.voxels_removed;
   }
-  // Cavities: background components that do not reach the border of the (padded) crop.
+  // Cavities: background components that do not reach the border of the (padded) crop; the
+  // small ones are filled.
   if (options.fill_cavities) {
     const Runs r = find_runs(mask, 0);
     int count = 0;
@@ -141,13 +145,16 @@ CleanupReport clean_object(Mask& mask, const CleanupOptions& options) {
       size[id[i]] += std::size_t(r.runs[i].i1 - r.runs[i].i0);
       if (touches_border(mask.grid, r.runs[i])) outside[id[i]] = 1;
     }
-    for (int c = 0; c < count; ++c)
-      if (!outside[c]) {
-        ++report.cavities_filled;
-        report.voxels_filled += size[c];
-      }
+    const double fill_up_to = options.max_cavity_fraction * double(object_voxels);
+    std::vector<char> filled(std::size_t(count), 0);
+    for (int c = 0; c < count; ++c) {
+      if (outside[c]) continue;
+      filled[c] = double(size[c]) <= fill_up_to;
+      ++(filled[c] ? report.cavities_filled : report.cavities_kept);
+      (filled[c] ? report.voxels_filled : report.voxels_kept) += size[c];
+    }
     for (std::size_t i = 0; i < r.runs.size(); ++i)
-      if (!outside[id[i]]) fill(mask, r.runs[i], 1);
+      if (filled[id[i]]) fill(mask, r.runs[i], 1);
   }
   return report;
 }

@@ -11,7 +11,11 @@ namespace cvt {
 struct CleanupOptions {
   bool remove_small_components = true;  // drop object components smaller than the fraction below
   double min_component_fraction = 0.01;  // of the largest component's voxel count
-  bool fill_cavities = true;  // background components not reaching the crop border become object
+  // Background components not reaching the crop border (cavities) become object when they are
+  // small next to it: at most max_cavity_fraction of the object's voxels. A large cavity is
+  // anatomy (a skull's cranial cavity, a heart's blood pool) and stays a hole.
+  bool fill_cavities = true;
+  double max_cavity_fraction = 0.01;
 };
 
 struct CleanupReport {
@@ -20,6 +24,8 @@ struct CleanupReport {
   std::size_t voxels_removed = 0;
   int cavities_filled = 0;         // enclosed background components (6-connected) filled
   std::size_t voxels_filled = 0;
+  int cavities_kept = 0;  // enclosed background components left as holes (too large to fill)
+  std::size_t voxels_kept = 0;
 };
 
 // Labels the 6-connected components of voxels equal to `value`: labels[v] = component id + 1,
