@@ -147,6 +147,13 @@ void run(const MeshArgs& args) {
                  mesh.vertices.size(), mesh.tets.size(), args.output.c_str(), total,
                  pipe.records().back().peak_rss_mb,
                  pipe.quality()->validity.valid ? "valid" : "NOT VALID");
+    const CleanupReport& c = pipe.preprocess()->cleanup;
+    if (c.components_removed + c.cavities_filled + c.cavities_kept > 0)
+      std::fprintf(stderr,
+                   "cvtmesh: clean-up: %d specks dropped (%zu voxels), %d cavities filled "
+                   "(%zu voxels), %d too large to fill kept (%zu voxels)\n",
+                   c.components_removed, c.voxels_removed, c.cavities_filled, c.voxels_filled,
+                   c.cavities_kept, c.voxels_kept);
     if (const FidelityReport* f = pipe.fidelity())
       std::fprintf(stderr,
                    "cvtmesh: fidelity: Hausdorff %.2f mm, mean %.3f mm, 95th percentile %.2f mm, "
