@@ -31,6 +31,7 @@ std::shared_ptr<const VolumeLayers> make_volume_layers(
   const Vec3 at = image_grid.world_to_index(v->grid.origin);
   for (int a = 0; a < 3; ++a) v->offset[a] = int(std::lround(at[a]));
   v->lfs_bounds = pre->lfs_bounds;
+  v->cleanup = pre->cleanup;
   v->object_surface = object_surface_preview(pre->object, pre->boundary.size());
   // Aliasing pointers: each shares ownership of the whole result.
   v->object = std::shared_ptr<const Mask>(pre, &pre->object);

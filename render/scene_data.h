@@ -28,6 +28,7 @@ struct VolumeLayers {
   std::shared_ptr<const Mask> medial_axis;    // 1 inner, 2 outer
   LfsBounds lfs_bounds{0, 0};      // the colormap range of lfs_mm
   TriangleSurface object_surface;  // object_surface_preview (world mm)
+  CleanupReport cleanup;           // what the clean-up dropped, filled and kept
 };
 
 // The Lloyd state (stage 3) at one iteration.

@@ -201,6 +201,23 @@ TEST(SceneData, SnapshotsShareWhatDidNotChange) {
   EXPECT_EQ(stage_of_record("fidelity"), Stage::evaluate);
 }
 
+// The viewer tells what the clean-up did (a cavity kept is a hole in the mesh): the snapshot
+// carries stage 1's report.
+TEST(SceneData, VolumesCarryTheCleanup) {
+  const Phantom p = hollow_sphere_phantom({0, 0, 0}, 4.0, 8.0);
+  auto image = std::make_shared<const Image>(
+      rasterize(p, grid_around(p, {1, 1, 1}, rotation_matrix({0, 0, 1}, 0))));
+  Pipeline pipe;
+  pipe.set_image(image);
+  pipe.run_through(Stage::preprocess);
+  SceneDataBuilder builder;
+  const auto s = builder.update(pipe, image);
+  ASSERT_NE(s->volumes, nullptr);
+  EXPECT_EQ(s->volumes->cleanup.cavities_kept, 1);
+  EXPECT_EQ(s->volumes->cleanup.voxels_kept, pipe.preprocess()->cleanup.voxels_kept);
+  EXPECT_GT(s->volumes->cleanup.voxels_kept, 0u);
+}
+
 TEST(SliceComposer, ComposesOffThreadNewestFirst) {
   SliceFixture f;
   auto scene = std::make_shared<SceneData>();

@@ -84,6 +84,18 @@ bool edit_object_selection(UiContext& ctx) {
   return changed;
 }
 
+// What the clean-up did: a cavity kept is a hole in the mesh, which a user should not miss.
+void cleanup_section(UiContext& ctx) {
+  const render::SceneData* scene = ctx.session.scene();
+  if (!scene || !scene->volumes) return;
+  const CleanupReport& c = scene->volumes->cleanup;
+  ImGui::Text("specks dropped: %d (%zu voxels)", c.components_removed, c.voxels_removed);
+  ImGui::Text("cavities filled: %d (%zu voxels)", c.cavities_filled, c.voxels_filled);
+  if (c.cavities_kept > 0)
+    ImGui::TextWrapped("cavities kept, too large to fill: %d (%zu voxels)", c.cavities_kept,
+                       c.voxels_kept);
+}
+
 void lloyd_section(UiContext& ctx) {
   Session& s = ctx.session;
   const auto lloyd = s.lloyd();
@@ -195,6 +207,7 @@ bool stage_section(UiContext& ctx, Stage st) {
         p.interior_spacing_mm == 0)
       ImGui::TextDisabled("auto spacing: %.3g mm", scene->default_interior_spacing_mm);
   }
+  if (st == Stage::preprocess) cleanup_section(ctx);
   if (st == Stage::cvt) lloyd_section(ctx);
   if (st == Stage::optimize) optimization_section(ctx);
   return changed;
