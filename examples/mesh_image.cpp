@@ -31,7 +31,7 @@ int main(int argc, char** argv) {
     const SurfaceSamples surface = sample_surface(pre, surface_options(p));
     // 3. Interior samples I by Lloyd's algorithm, as far apart as the surface samples are (their
     //    spacing r·lfs, weighted by the area each one covers).
-    LloydStepper lloyd(pre, cvt_options(p, area_weighted_spacing_mm(surface, pre.lfs_mm, p.r)));
+    LloydStepper lloyd(pre, cvt_options(p, area_weighted_spacing_mm(surface, pre.lfs_mm, surface_options(p))));
     lloyd.run_to_convergence();
     // 4. Drop the interior samples whose Voronoi region reaches the boundary.
     const ShallowResult interior =

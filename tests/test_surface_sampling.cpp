@@ -106,3 +106,36 @@ TEST(SurfaceSampling, DeterministicAndRejectsBadParameters) {
   EXPECT_EQ(a.priority_mm2, b.priority_mm2);
   for (float k : a.priority_mm2) EXPECT_TRUE(std::isfinite(surface_energy(k, 2.0)));
 }
+
+// On a sphere lfs = R everywhere: r·R = 6 mm apart without a chord tolerance; with δ = 0.1 mm
+// the radius is √(8·δ·R) = 3.46 mm, so ≈ (6 / 3.46)² = 3× the samples, every boundary voxel
+// within that radius of one; a δ at least r²·R/8 caps nothing. The interior spacing that
+// matches the surface (an area-weighted mean of r·lfs) is r·R either way.
+TEST(SurfaceSampling, ChordToleranceCapsTheRadiusWhereLfsIsLarge) {
+  const double R = 15.0;
+  const Phantom p = sphere_phantom({0, 0, 0}, R);
+  const PreprocessResult pre = preprocess_phantom(p, {0.5, 0.5, 0.6}, rotation_matrix({0, 0, 1}, 0));
+  SurfaceSamplingOptions plain;
+  plain.r = 0.4;
+  SurfaceSamplingOptions capped = plain;
+  capped.chord_tolerance_mm = 0.1;
+  const SurfaceSamples a = sample_surface(pre, plain), b = sample_surface(pre, capped);
+  const double ratio = double(b.voxels.size()) / double(a.voxels.size());
+  EXPECT_GT(ratio, 2.2);
+  EXPECT_LT(ratio, 4.0);
+  const Grid& g = pre.object.grid;
+  double worst = 0;
+  for (std::int32_t f : pre.boundary) {
+    const Vec3 x = g.voxel_to_world(std::size_t(f));
+    double best = 1e300;
+    for (const Vec3& s : b.voxel_world) best = std::min(best, squared_distance(x, s));
+    worst = std::max(worst, std::sqrt(best) / sampling_radius_mm(pre.lfs_mm.data[f], capped));
+  }
+  EXPECT_LT(worst, 1.0);
+  EXPECT_LT(sampling_radius_mm(R, capped), 0.6 * sampling_radius_mm(R, plain));
+  SurfaceSamplingOptions loose = plain;
+  loose.chord_tolerance_mm = 0.4 * 0.4 * 20.0 / 8.0;  // above r²·lfs/8 for every lfs ≤ 20
+  EXPECT_EQ(sample_surface(pre, loose).voxels, a.voxels);
+  EXPECT_NEAR(area_weighted_spacing_mm(b, pre.lfs_mm, capped),
+              area_weighted_spacing_mm(a, pre.lfs_mm, plain), 0.03 * 0.4 * R);
+}

@@ -97,6 +97,12 @@ std::vector<ParameterSpec> make_registry() {
                   "sample. Smaller = denser surface.",
        .lo = 0, .hi = 1, .lo_open = true, .hi_open = true, .slider = {0.05, 0.95},
        .ref = top<&P::r>},
+      {.key = "chord_tolerance_mm", .cli = "chord-tolerance", .label = "chord tolerance",
+       .unit = "mm", .stage = S::surface,
+       .tooltip = "Where lfs is large, samples lie within √(8·δ·lfs) instead of r·lfs, so a "
+                  "boundary triangle stays within δ of a surface curved with radius lfs (mm); 0: "
+                  "r·lfs alone.",
+       .lo = 0, .ref = top<&P::chord_tolerance_mm>},
       // σ only scales the energies of eq. (3); Algorithm 1's order depends on h² − r²·lfs²
       // alone, so it changes no result.
       {.key = "sigma_surface_mm", .cli = "sigma-surface", .label = "σ surface", .unit = "mm",

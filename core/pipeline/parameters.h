@@ -36,6 +36,7 @@ struct Parameters {
   double lfs_max_mm = 0;
   // Stage 2: surface sampling.
   double r = 0.4;
+  double chord_tolerance_mm = 0;
   double sigma_surface_mm = 2.0;
   bool project_samples = true;
   // Stage 3: CVT interior sampling.

@@ -36,6 +36,7 @@ PreprocessOptions preprocess_options(const Parameters& p) {
 SurfaceSamplingOptions surface_options(const Parameters& p) {
   SurfaceSamplingOptions o;
   o.r = p.r;
+  o.chord_tolerance_mm = p.chord_tolerance_mm;
   o.project_to_surface = p.project_samples;
   return o;
 }
@@ -119,7 +120,7 @@ const TetMesh* Pipeline::final_mesh() const {
 
 double Pipeline::default_interior_spacing_mm() const {
   if (!surface_ || surface_->voxels.empty()) return 0;
-  return area_weighted_spacing_mm(*surface_, preprocess_->lfs_mm, parameters_.r);
+  return area_weighted_spacing_mm(*surface_, preprocess_->lfs_mm, surface_options(parameters_));
 }
 
 void Pipeline::start_lloyd() {

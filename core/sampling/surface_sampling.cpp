@@ -106,14 +106,15 @@ bool project_to_level_set(const Volume<float>& field, float level, Vec3& index,
 }
 
 double area_weighted_spacing_mm(const SurfaceSamples& samples, const Volume<float>& lfs_mm,
-                                double r) {
-  double s2 = 0, s3 = 0;
+                                const SurfaceSamplingOptions& options) {
+  double c2 = 0, c2s = 0;
   for (std::int32_t v : samples.voxels) {
-    const double s = r * lfs_mm.data[v];
-    s2 += s * s;
-    s3 += s * s * s;
+    const double lfs = lfs_mm.data[v], s = options.r * lfs;
+    const double c = sampling_radius_mm(lfs, options);
+    c2 += c * c;
+    c2s += c * c * s;
   }
-  return s2 > 0 ? s3 / s2 : 0.0;
+  return c2 > 0 ? c2s / c2 : 0.0;
 }
 
 SurfaceSamples sample_surface(const PreprocessResult& pre, const SurfaceSamplingOptions& options,
@@ -124,10 +125,13 @@ SurfaceSamples sample_surface(const PreprocessResult& pre, const SurfaceSampling
   const std::size_t n = F.size();
   std::vector<Vec3> pos(n);
   std::vector<double> lfs(n);
+  // With a chord cap, the algorithm runs on lfs' = radius / r.
+  const double delta = options.chord_tolerance_mm;
   for (std::size_t i = 0; i < n; ++i) {
     const auto c = grid.ijk(std::size_t(F[i]));
     pos[i] = grid.index_to_local({double(c[0]), double(c[1]), double(c[2])});
     lfs[i] = pre.lfs_mm.data[F[i]];
+    if (delta > 0) lfs[i] = sampling_radius_mm(lfs[i], options) / options.r;
   }
   const double max_spacing = std::max({grid.spacing.x, grid.spacing.y, grid.spacing.z});
   const PointGrid points(pos, 4.0 * max_spacing);  // the boundary voxels, for the r-cover

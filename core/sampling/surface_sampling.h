@@ -5,6 +5,7 @@
 // boundary voxel lies within r·lfs of a sample.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -16,6 +17,9 @@ namespace cvt {
 
 struct SurfaceSamplingOptions {
   double r = 0.4;                   // sampling ratio: samples within r·lfs of every boundary voxel
+  // Chord tolerance δ (mm, 0: none): where lfs is large, r·lfs is capped at √(8·δ·lfs), so a
+  // chord between two samples on a surface curved with radius ≥ lfs stays within δ of it.
+  double chord_tolerance_mm = 0;
   bool project_to_surface = true;   // move samples onto the 0.5 level of the smoothed indicator
   double max_projection_voxels = 1.5;  // in largest voxel spacings; a projection moving
                                        // farther keeps the voxel centre
@@ -40,10 +44,19 @@ SurfaceSamples sample_surface(const PreprocessResult& pre, const SurfaceSampling
                               const Progress& progress = {});
 
 // The interior spacing that matches the surface samples: their spacing s = r·lfs, weighted by
-// the surface area each one covers (∝ s²), Σ s³ / Σ s² (mm). Samples crowd where lfs is small,
-// so this matches the bulk of the surface rather than its fine parts. 0 without samples.
+// the surface area each one covers (∝ c², c its radius: s, or less by the chord cap),
+// Σ c² s / Σ c² (mm). Samples crowd where lfs is small, so this matches the bulk of the surface
+// rather than its fine parts; and the chord cap, which adds samples on flat parts, leaves it
+// (an area-weighted mean over the surface) as it was. 0 without samples.
 double area_weighted_spacing_mm(const SurfaceSamples& samples, const Volume<float>& lfs_mm,
-                                double r);
+                                const SurfaceSamplingOptions& options);
+
+// The radius a sample at a voxel of this lfs covers: r·lfs, capped at √(8·δ·lfs) by a chord
+// tolerance δ > 0 (mm).
+inline double sampling_radius_mm(double lfs_mm, const SurfaceSamplingOptions& options) {
+  const double s = options.r * lfs_mm, delta = options.chord_tolerance_mm;
+  return delta > 0 ? std::min(s, std::sqrt(8.0 * delta * lfs_mm)) : s;
+}
 
 // Moves a point (continuous index) onto the `level` set of `field` by Newton steps along the
 // physical gradient; returns false (and leaves `index`) when it does not converge within
