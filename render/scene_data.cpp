@@ -113,6 +113,7 @@ std::shared_ptr<const SceneData> SceneDataBuilder::update(const Pipeline& pipeli
     s->label_counts = prev->label_counts;
   }
   s->parameters = pipeline.parameters();
+  s->sized_parameters = pipeline.sized_parameters();
   for (int st = 0; st < kStageCount; ++st) s->stale[st] = pipeline.is_stale(Stage(st));
   s->records = pipeline.records();
   s->default_interior_spacing_mm = pipeline.default_interior_spacing_mm();

@@ -78,6 +78,7 @@ struct SceneData {
   std::map<std::int64_t, std::size_t> label_counts;  // integer images: voxels per label
   ValueRange value_range;
   Parameters parameters;                  // as applied to the pipeline
+  Parameters sized_parameters;            // as the stages use them (--vertices resolved)
   std::array<bool, kStageCount> stale{};  // Pipeline::is_stale per stage
   std::vector<StageRecord> records;
   double default_interior_spacing_mm = 0;

@@ -206,6 +206,11 @@ bool stage_section(UiContext& ctx, Stage st) {
     if (spec.key == "interior_spacing_mm" && scene && scene->default_interior_spacing_mm > 0 &&
         p.interior_spacing_mm == 0)
       ImGui::TextDisabled("auto spacing: %.3g mm", scene->default_interior_spacing_mm);
+    if (spec.key == "target_vertices" && scene && p.target_vertices > 0 &&
+        scene->sized_parameters.target_vertices == p.target_vertices &&
+        scene->sized_parameters.r != p.r)
+      ImGui::TextDisabled("for it: r %.3g, %lld interior points", scene->sized_parameters.r,
+                          static_cast<long long>(scene->sized_parameters.interior_points));
   }
   if (st == Stage::preprocess) cleanup_section(ctx);
   if (st == Stage::cvt) lloyd_section(ctx);

@@ -103,6 +103,11 @@ std::vector<ParameterSpec> make_registry() {
                   "boundary triangle stays within δ of a surface curved with radius lfs (mm); 0: "
                   "r·lfs alone.",
        .lo = 0, .ref = top<&P::chord_tolerance_mm>},
+      {.key = "target_vertices", .cli = "vertices", .label = "vertices", .stage = S::surface,
+       .tooltip = "Approximate vertex count of the mesh: r and the interior points are scaled "
+                  "together to reach it, keeping their balance (0: off, r and the interior "
+                  "spacing as set).",
+       .lo = 0, .hi = 1e9, .zero_means = "off", .ref = top<&P::target_vertices>},
       // σ only scales the energies of eq. (3); Algorithm 1's order depends on h² − r²·lfs²
       // alone, so it changes no result.
       {.key = "sigma_surface_mm", .cli = "sigma-surface", .label = "σ surface", .unit = "mm",

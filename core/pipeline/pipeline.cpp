@@ -5,6 +5,7 @@
 #include "base/errors.h"
 #include "pipeline/parameter_registry.h"
 #include "base/memory.h"
+#include "pipeline/vertex_budget.h"
 
 namespace cvt {
 
@@ -97,8 +98,14 @@ void Pipeline::invalidate_from(Stage s) {
   }
   switch (s) {  // drop results that no longer match (each case falls through downstream)
     case Stage::preprocess: preprocess_.reset(); [[fallthrough]];
-    case Stage::surface: surface_.reset(); [[fallthrough]];
-    case Stage::cvt: lloyd_.reset(); [[fallthrough]];
+    case Stage::surface:
+      surface_.reset();
+      budget_r_ = 0;
+      [[fallthrough]];
+    case Stage::cvt:
+      lloyd_.reset();
+      budget_points_ = 0;
+      [[fallthrough]];
     case Stage::shallow: shallow_.reset(); [[fallthrough]];
     case Stage::mesh: mesh_.reset(); [[fallthrough]];
     case Stage::optimize:
@@ -120,11 +127,48 @@ const TetMesh* Pipeline::final_mesh() const {
 
 double Pipeline::default_interior_spacing_mm() const {
   if (!surface_ || surface_->voxels.empty()) return 0;
-  return area_weighted_spacing_mm(*surface_, preprocess_->lfs_mm, surface_options(parameters_));
+  return area_weighted_spacing_mm(*surface_, preprocess_->lfs_mm,
+                                  surface_options(sized_parameters()));
+}
+
+Parameters Pipeline::sized_parameters() const {
+  Parameters p = parameters_;
+  if (budget_r_ > 0) p.r = budget_r_;
+  if (budget_points_ > 0) p.interior_points = budget_points_;
+  return p;
+}
+
+double Pipeline::budget_r() const {
+  // The samples the user's r gives (their count only: no projection), and the interior sites
+  // that match them.
+  SurfaceSamplingOptions probe = surface_options(parameters_);
+  probe.project_to_surface = false;
+  const SurfaceSamples s = sample_surface(*preprocess_, probe);
+  const double spacing = area_weighted_spacing_mm(s, preprocess_->lfs_mm, probe);
+  Parameters p = parameters_;
+  p.interior_points = 0;
+  const CvtResolved r = resolve_cvt_options(cvt_options(p, spacing), preprocess_->object);
+  return r_for_budget(parameters_.r, std::int64_t(s.voxels.size()), r.sites,
+                      parameters_.target_vertices);
 }
 
 void Pipeline::start_lloyd() {
-  const CvtOptions options = cvt_options(parameters_, default_interior_spacing_mm());
+  const std::int64_t target = parameters_.target_vertices;
+  if (target > 0 && budget_points_ == 0) {
+    // The shallow share at a first guess (the sites as first drawn), then the count that
+    // leaves the budget's interior vertices.
+    const std::int64_t surface = std::int64_t(surface_->voxels.size());
+    Parameters p = parameters_;
+    p.interior_points = std::max<std::int64_t>(1, target - surface);
+    LloydStepper probe(*preprocess_, cvt_options(p, default_interior_spacing_mm()));
+    probe.initialize();
+    const std::size_t shallow =
+        remove_shallow_points(probe.sites_world(), probe.owners_of(preprocess_->boundary))
+            .removed_index.size();
+    budget_points_ = interior_points_for_budget(target, surface, p.interior_points,
+                                                double(shallow) / double(p.interior_points));
+  }
+  const CvtOptions options = cvt_options(sized_parameters(), default_interior_spacing_mm());
   const CvtResolved r = resolve_cvt_options(options, preprocess_->object);
   if (r.sites > parameters_.max_points)
     throw InputError("interior points: " + std::to_string(r.sites) + " needed (spacing " +
@@ -164,8 +208,9 @@ void Pipeline::run_stage(Stage s, const Progress& progress) {
           preprocess_options(parameters_), progress));
       break;
     case Stage::surface:
+      if (parameters_.target_vertices > 0) budget_r_ = budget_r();
       surface_ = std::make_unique<SurfaceSamples>(
-          sample_surface(*preprocess_, surface_options(parameters_), progress));
+          sample_surface(*preprocess_, surface_options(sized_parameters()), progress));
       break;
     case Stage::cvt:
       if (!lloyd_) start_lloyd();

@@ -107,6 +107,9 @@ class Pipeline {
   std::uint64_t generation(Stage s) const { return generation_[int(s)]; }
   // Default interior spacing: area_weighted_spacing_mm of the surface samples.
   double default_interior_spacing_mm() const;
+  // The parameters as the stages use them: with --vertices (target_vertices), the r and the
+  // interior points it chose, once stages 2 and 3 have resolved them.
+  Parameters sized_parameters() const;
 
   const std::vector<StageRecord>& records() const { return records_; }
 
@@ -116,6 +119,7 @@ class Pipeline {
   void invalidate_from(Stage s);
   void free_inputs_used_up_by(Stage s);  // in a once-run
   void start_lloyd();
+  double budget_r() const;  // --vertices: the r of stage 2
   int run_lloyd(int k, const Progress& progress);        // k < 0: to convergence
   int optimize_passes(int k, const Progress& progress);  // k < 0: to the end
   void record(std::string name, double wall_s);
@@ -123,6 +127,8 @@ class Pipeline {
   std::shared_ptr<const Image> image_;
   Run run_ = Run::repeatable;
   Parameters parameters_;
+  double budget_r_ = 0;               // --vertices: stage 2's r (0: none yet)
+  std::int64_t budget_points_ = 0;    // … and stage 3's interior points
   bool done_[kStageCount] = {};
   std::uint64_t generation_[kStageCount] = {};
   std::shared_ptr<PreprocessResult> preprocess_;

@@ -42,6 +42,12 @@ nlohmann::json run_report(const Pipeline& pipe) {
   using nlohmann::json;
   json j;
   j["parameters"] = to_json(pipe.parameters());
+  if (pipe.parameters().target_vertices > 0) {
+    const Parameters sized = pipe.sized_parameters();
+    j["vertex_budget"] = {{"target_vertices", sized.target_vertices},
+                          {"r", sized.r},
+                          {"interior_points", sized.interior_points}};
+  }
   json stages = json::array();
   for (const StageRecord& r : pipe.records())
     stages.push_back({{"name", r.name}, {"wall_s", r.wall_s}, {"peak_rss_mb", r.peak_rss_mb}});
