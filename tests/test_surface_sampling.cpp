@@ -19,15 +19,17 @@ PreprocessResult preprocess_phantom(const Phantom& p, const Vec3& spacing,
   return preprocess(rasterize(p, grid_around(p, spacing, direction)), opt);
 }
 
-// Largest ratio d(voxel, nearest sample voxel) / (r · lfs(voxel)) over all boundary voxels.
-double worst_coverage_ratio(const PreprocessResult& pre, const SurfaceSamples& s, double r) {
+// Largest ratio d(voxel, nearest sample voxel) / (its sampling radius, r · lfs(voxel) or less
+// by a chord tolerance) over all boundary voxels.
+double worst_coverage_ratio(const PreprocessResult& pre, const SurfaceSamples& s,
+                            const SurfaceSamplingOptions& opt) {
   const Grid& g = pre.object.grid;
   double worst = 0;
   for (std::int32_t f : pre.boundary) {
     const Vec3 x = g.voxel_to_world(std::size_t(f));
     double best = 1e300;
     for (const Vec3& b : s.voxel_world) best = std::min(best, squared_distance(x, b));
-    worst = std::max(worst, std::sqrt(best) / (r * pre.lfs_mm.data[f]));
+    worst = std::max(worst, std::sqrt(best) / sampling_radius_mm(pre.lfs_mm.data[f], opt));
   }
   return worst;
 }
@@ -42,7 +44,7 @@ TEST(SurfaceSampling, EveryBoundaryVoxelIsRSampled) {
     opt.r = r;
     const SurfaceSamples s = sample_surface(pre, opt);
     ASSERT_GT(s.voxels.size(), 10u);
-    EXPECT_LT(worst_coverage_ratio(pre, s, r), 1.0) << "r = " << r;
+    EXPECT_LT(worst_coverage_ratio(pre, s, opt), 1.0) << "r = " << r;
     // Samples are distinct boundary voxels.
     std::vector<std::int32_t> sorted = s.voxels;
     std::sort(sorted.begin(), sorted.end());
@@ -123,15 +125,7 @@ TEST(SurfaceSampling, ChordToleranceCapsTheRadiusWhereLfsIsLarge) {
   const double ratio = double(b.voxels.size()) / double(a.voxels.size());
   EXPECT_GT(ratio, 2.2);
   EXPECT_LT(ratio, 4.0);
-  const Grid& g = pre.object.grid;
-  double worst = 0;
-  for (std::int32_t f : pre.boundary) {
-    const Vec3 x = g.voxel_to_world(std::size_t(f));
-    double best = 1e300;
-    for (const Vec3& s : b.voxel_world) best = std::min(best, squared_distance(x, s));
-    worst = std::max(worst, std::sqrt(best) / sampling_radius_mm(pre.lfs_mm.data[f], capped));
-  }
-  EXPECT_LT(worst, 1.0);
+  EXPECT_LT(worst_coverage_ratio(pre, b, capped), 1.0);
   EXPECT_LT(sampling_radius_mm(R, capped), 0.6 * sampling_radius_mm(R, plain));
   SurfaceSamplingOptions loose = plain;
   loose.chord_tolerance_mm = 0.4 * 0.4 * 20.0 / 8.0;  // above r²·lfs/8 for every lfs ≤ 20
