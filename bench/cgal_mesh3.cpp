@@ -1,5 +1,6 @@
 // CGAL 5.5 Mesh_3 on a labelled image, as the reference the benchmarks compare cvtmesh against.
-// The object is every non-zero label (or --labels L1,L2), meshed as one subdomain; the criteria
+// The object is every non-zero label (or --labels L1,L2; or, in a grey image, the voxels of value
+// ≥ --iso, as cvtmesh thresholds it), meshed as one subdomain; the criteria
 // and the optimisation come from the command line; each phase (refine, lloyd, perturb, exude) is
 // timed with the process peak RSS after it, and the mesh is written as Medit .mesh in world
 // coordinates (INR: voxel (i,j,k) at (i·vx, j·vy, k·vz) + origin), the frame cvtmesh uses, so
@@ -7,7 +8,7 @@
 //
 //   bench_cgal_mesh3 IMAGE -o OUT.mesh [--facet-angle 30] [--facet-size 6] [--facet-distance 0.5]
 //       [--cell-radius-edge-ratio 3] [--cell-size 8] [--optimize none|default|lloyd]
-//       [--threads 1|N] [--manifold] [--labels all|L1,L2] [--json TIMES.json] [--seed S]
+//       [--threads 1|N] [--manifold] [--labels all|L1,L2 | --iso V] [--json TIMES.json] [--seed S]
 //
 // --optimize default is make_mesh_3's default: perturb then exude, each with a time limit equal
 // to the refinement time and sliver bound 0 (as far as possible); lloyd runs lloyd_optimize_mesh_3
@@ -24,9 +25,12 @@
 
 #include <CLI/CLI.hpp>
 #include <chrono>
+#include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <functional>
 #include <iostream>
+#include <limits>
 #include <map>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -45,6 +49,7 @@ struct Options {
   std::string image, output, json, labels = "all", optimize = "default";
   double facet_angle = 30, facet_size = 6, facet_distance = 0.5;
   double cell_radius_edge_ratio = 3, cell_size = 8;
+  double iso = std::numeric_limits<double>::quiet_NaN();  // set: grey image, value >= iso
   int threads = 1;
   unsigned seed = 0;
   bool manifold = false;
@@ -63,7 +68,7 @@ double peak_mb() {
 // A uchar image with 1 where the label is selected, 0 elsewhere; same dims, spacing and origin.
 // Binarising first (rather than mapping labels after CGAL's label interpolation) makes the
 // object exactly "voxels with a selected label", the object cvtmesh meshes.
-CGAL::Image_3 binary_object(const CGAL::Image_3& image, const std::set<long>& labels) {
+CGAL::Image_3 binary_object(const CGAL::Image_3& image, const std::function<bool(double)>& in_object) {
   _image* im = _createImage(image.xdim(), image.ydim(), image.zdim(), 1, image.vx(), image.vy(),
                             image.vz(), 1, WK_FIXED, SGN_UNSIGNED);
   im->tx = image.tx();
@@ -74,8 +79,7 @@ CGAL::Image_3 binary_object(const CGAL::Image_3& image, const std::set<long>& la
   for (std::size_t k = 0; k < image.zdim(); ++k)
     for (std::size_t j = 0; j < image.ydim(); ++j)
       for (std::size_t i = 0; i < image.xdim(); ++i, ++n) {
-        const long v = long(image.value(i, j, k));
-        const bool in = labels.empty() ? v != 0 : labels.count(v) > 0;
+        const bool in = in_object(double(image.value(i, j, k)));
         out[n] = in ? 1 : 0;
         inside += in;
       }
@@ -156,7 +160,12 @@ nlohmann::json run(const Options& o) {
   CGAL::Image_3 image, object;
   timed("read", [&] {
     if (!image.read(o.image.c_str())) throw std::runtime_error("cannot read image " + o.image);
-    object = binary_object(image, parse_labels(o.labels));
+    const std::set<long> labels = parse_labels(o.labels);
+    const double iso = o.iso;
+    object = std::isnan(iso) ? binary_object(image, [&](double v) {
+      return labels.empty() ? long(v) != 0 : labels.count(long(v)) > 0;
+    })
+                             : binary_object(image, [iso](double v) { return v >= iso; });
   });
   CGAL::Random rng(o.seed);
   const Domain domain = Domain::create_labeled_image_mesh_domain(object, p::p_rng = &rng);
@@ -231,6 +240,7 @@ int main(int argc, char** argv) {
       ->check(CLI::IsMember({"none", "default", "lloyd"}));
   app.add_option("--threads", o.threads, "1: sequential mesher; > 1: TBB-parallel with N threads");
   app.add_option("--labels", o.labels, "Object labels: all (non-zero) | L1,L2,...");
+  app.add_option("--iso", o.iso, "Grey images: the object is value >= ISO (replaces --labels)");
   app.add_flag("--manifold", o.manifold,
                "Refine until the boundary is a 2-manifold (CGAL's manifold() option)");
   app.add_option("--seed", o.seed, "Seed of the domain's random generator");
