@@ -206,11 +206,17 @@ bool stage_section(UiContext& ctx, Stage st) {
     if (spec.key == "interior_spacing_mm" && scene && scene->default_interior_spacing_mm > 0 &&
         p.interior_spacing_mm == 0)
       ImGui::TextDisabled("auto spacing: %.3g mm", scene->default_interior_spacing_mm);
+    // Once stage 2 has run with this budget (its r is resolved then; the interior points after
+    // stage 3).
     if (spec.key == "target_vertices" && scene && p.target_vertices > 0 &&
-        scene->sized_parameters.target_vertices == p.target_vertices &&
-        scene->sized_parameters.r != p.r)
-      ImGui::TextDisabled("for it: r %.3g, %lld interior points", scene->sized_parameters.r,
-                          static_cast<long long>(scene->sized_parameters.interior_points));
+        scene->sized_parameters.target_vertices == p.target_vertices && scene->surface_samples) {
+      if (scene->sized_parameters.interior_points > 0)
+        ImGui::TextDisabled("for it: r %.3g, %lld interior points", scene->sized_parameters.r,
+                            static_cast<long long>(scene->sized_parameters.interior_points));
+      else
+        ImGui::TextDisabled("for it: r %.3g (interior points at stage 3)",
+                            scene->sized_parameters.r);
+    }
   }
   if (st == Stage::preprocess) cleanup_section(ctx);
   if (st == Stage::cvt) lloyd_section(ctx);
