@@ -128,8 +128,14 @@ bool MeshOptimizer::step(const Progress& progress) {
     cpu += process_cpu_s() - c0;
     return seconds_since(t0);
   };
-  opt::PassCounts flips, odt, smooth, inserted;
+  opt::PassCounts snapped, flips, odt, smooth, inserted;
   double flips_s = 0, odt_s = 0, smoothing_s = 0, insertion_s = 0;
+  if (surface_ && options_.smooth_surface) {
+    smoothing_s = timed([&] {
+      const double tolerance = options_.surface_tolerance_voxels * surface_->min_spacing_mm();
+      snapped = opt::snap_to_surface(m, *surface_, tolerance, bad_below);
+    });
+  }
   if (options_.flips || options_.boundary_flips) {
     flips_s = timed([&] {
       opt::TopologyOptions t;
@@ -151,7 +157,7 @@ bool MeshOptimizer::step(const Progress& progress) {
   }
   progress.check_cancelled();
   if (options_.smooth_interior || options_.smooth_surface) {
-    smoothing_s = timed([&] {
+    smoothing_s += timed([&] {
       opt::SmoothingOptions s;
       s.bad_below = bad_below;
       s.iterations = options_.smoothing_iterations;
@@ -171,7 +177,7 @@ bool MeshOptimizer::step(const Progress& progress) {
   const std::size_t changes = flips.edge_removals + flips.face_flips + flips.boundary_flips +
                               flips.corner_removals + odt.edge_removals + odt.face_flips +
                               odt.moved_interior + smooth.moved_interior + smooth.moved_surface +
-                              inserted.inserted;
+                              snapped.moved_surface + snapped.snapped_surface + inserted.inserted;
   if (changes == 0 || pass >= options_.max_passes) finished_ = true;
   // Full figures after every pass, or only for the last one.
   PassStats stats = statistics(pass, pass_statistics_ || finished_);
@@ -187,13 +193,15 @@ bool MeshOptimizer::step(const Progress& progress) {
   stats.corner_removals = flips.corner_removals;
   stats.odt_moved = odt.moved_interior;
   stats.moved_interior = smooth.moved_interior;
-  stats.moved_surface = smooth.moved_surface;
+  stats.moved_surface = smooth.moved_surface + snapped.moved_surface;
+  stats.snapped_surface = snapped.snapped_surface;
   stats.inserted = inserted.inserted;
   result_.wall_s += stats.wall_s;
   result_.cpu_s += cpu;
   result_.boundary_flips += flips.boundary_flips;
   result_.corner_removals += flips.corner_removals;
   result_.inserted_vertices += inserted.inserted;
+  result_.snapped_vertices += snapped.snapped_surface;
   result_.max_boundary_shift_mm =
       std::max(result_.max_boundary_shift_mm, flips.max_boundary_shift_mm);
   result_.max_flip_face_distance_mm =
@@ -324,6 +332,7 @@ nlohmann::json to_json(const OptimizationResult& r) {
                         {"odt_moved", s.odt_moved},
                         {"moved_interior", s.moved_interior},
                         {"moved_surface", s.moved_surface},
+                        {"snapped_surface", s.snapped_surface},
                         {"inserted", s.inserted},
                         {"vertices", s.vertices}};
     if (s.has_statistics) {
@@ -346,6 +355,7 @@ nlohmann::json to_json(const OptimizationResult& r) {
           {"sliding_vertices", r.sliding_vertices},
           {"fixed_boundary_vertices", r.fixed_boundary_vertices},
           {"fixed_boundary_distance_mm", r.fixed_boundary_distance_mm},
+          {"snapped_vertices", r.snapped_vertices},
           {"max_boundary_shift_mm", r.max_boundary_shift_mm},
           {"max_flip_face_distance_mm", r.max_flip_face_distance_mm},
           {"boundary_flips", r.boundary_flips},

@@ -2,6 +2,8 @@
 // improvement that removes slivers and other bad tets from the stage-5 mesh. A tet is bad when
 // a dihedral angle is below target_dihedral_deg (or above 180° minus it) or a Table I measure is
 // in its bad bin; each pass, worst tets first:
+//   0. boundary vertices off the surface (interior sites the Delaunay exposed) are moved onto
+//      it, as far as their star allows, and slide from then on;
 //   1. flips: edge removal (3-2, 4-4, … the ring re-triangulated by dynamic programming), 2-3
 //      face flips, boundary edge flips where the boundary is convex (the diagonal of two
 //      boundary triangles swapped, only when the new triangles follow the segmentation surface),
@@ -65,6 +67,7 @@ struct PassStats {
   std::size_t corner_removals = 0;  // corner tets removed with their corner vertex
   std::size_t odt_moved = 0;        // interior vertices moved by the ODT sweep
   std::size_t moved_interior = 0, moved_surface = 0;  // … and to raise a bad tet
+  std::size_t snapped_surface = 0;  // fixed boundary vertices brought onto the surface
   std::size_t inserted = 0;                           // interior vertices inserted
   std::size_t vertices = 0;                           // after the pass
 };
@@ -75,10 +78,12 @@ struct OptimizationResult {
   double setup_s = 0;              // … of which setting up (adjacency, qualities, surface)
   double cpu_s = 0;                // … as process CPU time (all threads)
   // Largest distance (mm) from a boundary vertex that may slide to the 0.5 level set, before
-  // and after; boundary vertices off the surface (they stay fixed) are counted apart.
+  // and after; boundary vertices off the surface at the start (fixed until snapped onto it)
+  // are counted apart.
   double surface_distance_before_mm = 0, surface_distance_after_mm = 0;
   std::size_t sliding_vertices = 0, fixed_boundary_vertices = 0;
   double fixed_boundary_distance_mm = 0;  // largest distance of a fixed boundary vertex
+  std::size_t snapped_vertices = 0;       // fixed boundary vertices snapped onto the surface
   // Boundary flips and corner removals: the largest height of a tet cut off (how far the
   // boundary moved), and the largest distance of a new boundary triangle's centroid to the
   // surface.
@@ -152,12 +157,13 @@ OptimizationResult optimize_mesh(TetMesh& mesh, const Volume<float>* indicator,
 
 // {"wall_s","setup_s","cpu_s","surface_distance_before_mm","surface_distance_after_mm",
 //  "sliding_vertices","fixed_boundary_vertices","fixed_boundary_distance_mm",
-//  "max_boundary_shift_mm","max_flip_face_distance_mm","boundary_flips","corner_removals",
-//  "inserted_vertices",
-//  "passes":[{"pass","wall_s","cpu_s","flips_s","odt_s","smoothing_s","insertion_s","tets","vertices",
-//  "min_quality","edge_removals","face_flips","boundary_flips","corner_removals","odt_moved","moved_interior","moved_surface",
-//  "inserted", with statistics: "min_dihedral_deg","max_dihedral_deg","below_deg":{"5","10",
-//  "15","20"},"bins_percent":{measure key: [3]}}]}
+//  "snapped_vertices","max_boundary_shift_mm","max_flip_face_distance_mm","boundary_flips",
+//  "corner_removals","inserted_vertices",
+//  "passes":[{"pass","wall_s","cpu_s","flips_s","odt_s","smoothing_s","insertion_s","tets",
+//  "vertices","min_quality","edge_removals","face_flips","boundary_flips","corner_removals",
+//  "odt_moved","moved_interior","moved_surface","snapped_surface","inserted", with statistics:
+//  "min_dihedral_deg","max_dihedral_deg","below_deg":{"5","10","15","20"},
+//  "bins_percent":{measure key: [3]}}]}
 nlohmann::json to_json(const OptimizationResult& result);
 
 }  // namespace cvt

@@ -188,6 +188,7 @@ struct PassCounts {
   std::size_t corner_removals = 0;   // corner tets removed with their corner vertex
   std::size_t moved_interior = 0;    // interior vertices moved
   std::size_t moved_surface = 0;     // boundary vertices moved along the surface
+  std::size_t snapped_surface = 0;   // boundary vertices moved onto the surface (now sliding)
   std::size_t inserted = 0;          // interior vertices inserted
   double max_boundary_shift_mm = 0;  // largest boundary move of a boundary flip or corner (mm)
   double max_face_distance_mm = 0;   // … and largest distance of a new boundary face's centroid
@@ -239,6 +240,13 @@ struct SmoothingOptions {
 // the result does not depend on the thread count.
 PassCounts smooth_vertices(WorkMesh& mesh, const LevelSetSurface* surface,
                            const SmoothingOptions& options);
+
+// Moves boundary vertices that are off `surface` (not in on_surface: interior sites the
+// Delaunay exposed on the boundary) onto it, or part of the way when the whole way would fold
+// their star or make a tet bad; a vertex brought within tolerance_mm joins on_surface, so it
+// slides from then on. Colour classes in parallel: deterministic whatever the thread count.
+PassCounts snap_to_surface(WorkMesh& mesh, const LevelSetSurface& surface, double tolerance_mm,
+                           double bad_below);
 
 // Lawson flips (2-3, 3-2) towards a Delaunay mesh, from the tets in `seeds`: a face whose
 // opposite vertex lies inside the circumsphere is flipped when no new tet is bad, nor worse than
