@@ -149,7 +149,7 @@ QualityReport expect_improved(const TetMesh& before, const TetMesh& after,
   // Input vertices keep their order (removed corners leave gaps), inserted ones come after, and
   // vertex_origin says which is which.
   EXPECT_EQ(after.vertices.size(),
-            before.vertices.size() + r.inserted_vertices - r.corner_removals);
+            before.vertices.size() + r.inserted_vertices - r.corner_removals - r.collapsed_edges);
   EXPECT_EQ(r.vertex_origin.size(), after.vertices.size());
   std::int32_t last = -1;
   std::size_t inserted = 0;

@@ -149,6 +149,11 @@ bool MeshOptimizer::step(const Progress& progress) {
           surface_ ? options_.max_face_distance_voxels * surface_->min_spacing_mm() : 0.0;
       t.max_boundary_shift_mm = options_.max_boundary_shift_mm;
       flips = opt::improve_topology(m, t);
+      opt::CollapseOptions c;
+      c.bad_below = bad_below;
+      c.surface = surface_.get();
+      c.max_face_distance_mm = t.max_face_distance_mm;
+      flips.collapsed_edges = opt::collapse_short_edges(m, c).collapsed_edges;
     });
   }
   progress.check_cancelled();
@@ -175,7 +180,7 @@ bool MeshOptimizer::step(const Progress& progress) {
     });
   }
   const std::size_t changes = flips.edge_removals + flips.face_flips + flips.boundary_flips +
-                              flips.corner_removals + odt.edge_removals + odt.face_flips +
+                              flips.corner_removals + flips.collapsed_edges + odt.edge_removals + odt.face_flips +
                               odt.moved_interior + smooth.moved_interior + smooth.moved_surface +
                               snapped.moved_surface + snapped.snapped_surface + inserted.inserted;
   if (changes == 0 || pass >= options_.max_passes) finished_ = true;
@@ -191,6 +196,7 @@ bool MeshOptimizer::step(const Progress& progress) {
   stats.face_flips = flips.face_flips + odt.face_flips;
   stats.boundary_flips = flips.boundary_flips;
   stats.corner_removals = flips.corner_removals;
+  stats.collapsed_edges = flips.collapsed_edges;
   stats.odt_moved = odt.moved_interior;
   stats.moved_interior = smooth.moved_interior;
   stats.moved_surface = smooth.moved_surface + snapped.moved_surface;
@@ -200,6 +206,7 @@ bool MeshOptimizer::step(const Progress& progress) {
   result_.cpu_s += cpu;
   result_.boundary_flips += flips.boundary_flips;
   result_.corner_removals += flips.corner_removals;
+  result_.collapsed_edges += flips.collapsed_edges;
   result_.inserted_vertices += inserted.inserted;
   result_.snapped_vertices += snapped.snapped_surface;
   result_.max_boundary_shift_mm =
@@ -329,6 +336,7 @@ nlohmann::json to_json(const OptimizationResult& r) {
                         {"face_flips", s.face_flips},
                         {"boundary_flips", s.boundary_flips},
                         {"corner_removals", s.corner_removals},
+                        {"collapsed_edges", s.collapsed_edges},
                         {"odt_moved", s.odt_moved},
                         {"moved_interior", s.moved_interior},
                         {"moved_surface", s.moved_surface},
@@ -360,6 +368,7 @@ nlohmann::json to_json(const OptimizationResult& r) {
           {"max_flip_face_distance_mm", r.max_flip_face_distance_mm},
           {"boundary_flips", r.boundary_flips},
           {"corner_removals", r.corner_removals},
+          {"collapsed_edges", r.collapsed_edges},
           {"inserted_vertices", r.inserted_vertices},
           {"passes", passes}};
 }

@@ -8,6 +8,8 @@
 //      face flips, boundary edge flips where the boundary is convex (the diagonal of two
 //      boundary triangles swapped, only when the new triangles follow the segmentation surface),
 //      and removal of corner tets (a spike of one tet on the surface, with its corner vertex);
+//      then the short edge of needles collapsed (a vertex removed) where the link condition
+//      holds;
 //   2. in the first passes, for a better overall distribution, one global ODT sweep over the
 //      interior vertices (towards the volume-weighted mean of their tets' circumcentres), and
 //      flips on mediocre tets as well as bad ones;
@@ -19,8 +21,8 @@
 // no tet turns bad, no bad tet gets worse), so the worst tet never gets worse (once no tet is
 // bad, none turns bad); new tets are
 // positively oriented and fill the region of the ones they replace, so validity and the
-// boundary's topology are kept. Input vertices keep their order (only removed corners leave
-// gaps, see OptimizationResult::vertex_origin); inserted ones are appended. Deterministic: the same
+// boundary's topology are kept. Input vertices keep their order (only removed corners and
+// collapsed vertices leave gaps, see OptimizationResult::vertex_origin); inserted ones are appended. Deterministic: the same
 // mesh and options give the same result, whatever the thread count.
 #pragma once
 
@@ -65,6 +67,7 @@ struct PassStats {
   // What the pass did.
   std::size_t edge_removals = 0, face_flips = 0, boundary_flips = 0;
   std::size_t corner_removals = 0;  // corner tets removed with their corner vertex
+  std::size_t collapsed_edges = 0;  // short edges of needles collapsed (a vertex removed)
   std::size_t odt_moved = 0;        // interior vertices moved by the ODT sweep
   std::size_t moved_interior = 0, moved_surface = 0;  // … and to raise a bad tet
   std::size_t snapped_surface = 0;  // fixed boundary vertices brought onto the surface
@@ -92,6 +95,7 @@ struct OptimizationResult {
   std::size_t boundary_flips = 0;
   std::size_t corner_removals = 0;    // corner tets (three boundary faces around a vertex with
                                       // no other tet) removed with that vertex
+  std::size_t collapsed_edges = 0;    // short edges collapsed, a vertex removed with each
   std::size_t inserted_vertices = 0;  // interior vertices inserted
   // For each vertex of the optimised mesh, the input vertex it is (−1: inserted). Input
   // vertices keep their order; only corners removed leave gaps. (Filled by optimize_mesh;
@@ -158,10 +162,10 @@ OptimizationResult optimize_mesh(TetMesh& mesh, const Volume<float>* indicator,
 // {"wall_s","setup_s","cpu_s","surface_distance_before_mm","surface_distance_after_mm",
 //  "sliding_vertices","fixed_boundary_vertices","fixed_boundary_distance_mm",
 //  "snapped_vertices","max_boundary_shift_mm","max_flip_face_distance_mm","boundary_flips",
-//  "corner_removals","inserted_vertices",
+//  "corner_removals","collapsed_edges","inserted_vertices",
 //  "passes":[{"pass","wall_s","cpu_s","flips_s","odt_s","smoothing_s","insertion_s","tets",
 //  "vertices","min_quality","edge_removals","face_flips","boundary_flips","corner_removals",
-//  "odt_moved","moved_interior","moved_surface","snapped_surface","inserted", with statistics:
+//  "collapsed_edges","odt_moved","moved_interior","moved_surface","snapped_surface","inserted", with statistics:
 //  "min_dihedral_deg","max_dihedral_deg","below_deg":{"5","10","15","20"},
 //  "bins_percent":{measure key: [3]}}]}
 nlohmann::json to_json(const OptimizationResult& result);

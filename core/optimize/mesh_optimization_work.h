@@ -189,6 +189,7 @@ struct PassCounts {
   std::size_t moved_interior = 0;    // interior vertices moved
   std::size_t moved_surface = 0;     // boundary vertices moved along the surface
   std::size_t snapped_surface = 0;   // boundary vertices moved onto the surface (now sliding)
+  std::size_t collapsed_edges = 0;   // short edges of needles collapsed (a vertex removed)
   std::size_t inserted = 0;          // interior vertices inserted
   double max_boundary_shift_mm = 0;  // largest boundary move of a boundary flip or corner (mm)
   double max_face_distance_mm = 0;   // … and largest distance of a new boundary face's centroid
@@ -213,6 +214,18 @@ struct TopologyOptions {
 // when it raises the smallest quality of the tets it replaces; every tet below bad_below is tried,
 // worst first. Planned in parallel, applied in order: deterministic whatever the thread count.
 PassCounts improve_topology(WorkMesh& mesh, const TopologyOptions& options);
+
+struct CollapseOptions {
+  double bad_below = 1;           // tets of lower quality are worked on …
+  double max_length_ratio = 0.4;  // … when their shortest edge is at most this × the next one
+  const LevelSetSurface* surface = nullptr;  // boundary edges collapse only with a surface, and
+  double max_face_distance_mm = 0;           // the new boundary triangles within this of it
+};
+
+// Collapses the shortest edge of needles (see mesh_optimization_collapse.cpp): a vertex is
+// removed (left without tets) when that keeps the topology and the boundary and raises the worst
+// tet of its star. Sequential, worst tets first: deterministic.
+PassCounts collapse_short_edges(WorkMesh& mesh, const CollapseOptions& options);
 
 struct InsertionOptions {
   double bad_below = 1;      // tets of lower quality get a vertex inserted when that helps
