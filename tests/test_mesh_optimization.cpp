@@ -162,7 +162,7 @@ QualityReport expect_improved(const TetMesh& before, const TetMesh& after,
     EXPECT_GT(o, last);
     last = o;
   }
-  EXPECT_EQ(inserted, r.inserted_vertices);
+  EXPECT_LE(inserted, r.inserted_vertices);  // an inserted vertex may be collapsed later
   // The worst tet gets better, so no tet ends worse than the worst before.
   EXPECT_GT(worst_min_sine(after), worst_min_sine(before));
   EXPECT_GT(qa.dihedral.min_deg, qb.dihedral.min_deg);
