@@ -65,8 +65,12 @@ TEST(MeshGeneration, TorusHasGenusOne) {
   expect_valid(r.quality);
   EXPECT_EQ(r.quality.validity.boundary.euler_characteristic, 0);
   EXPECT_EQ(r.quality.validity.boundary.components, 1u);
+  // Boundary vertices on the surface (stage 6 snaps the exposed interior ones onto it): an
+  // inscribed polyhedron, whose chords cut more of the thin tube (minor radius 3.5 mm) than of
+  // a ball.
   const double volume = 2 * kPi * kPi * major * minor * minor;
-  EXPECT_NEAR(r.quality.volume_mm3, volume, 0.06 * volume);
+  EXPECT_LT(r.quality.volume_mm3, volume);
+  EXPECT_GT(r.quality.volume_mm3, 0.92 * volume);
 }
 
 // By default a thick shell keeps its cavity (an eighth of the ball: too large to be a flaw of
