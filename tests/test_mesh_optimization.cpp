@@ -306,9 +306,8 @@ TEST(MeshOptimization, BoundaryVerticesOffTheSurfaceAreSnappedOntoIt) {
   const Vec3 spacing{0.5, 0.55, 0.7};
   Parameters fine;
   fine.r = 0.25;
-  auto pipe = mesh_image(
-      std::make_shared<Image>(rasterize(p, grid_around(p, spacing, rotation_matrix({1, 2, 2}, 0.5)))),
-      fine);
+  const Grid grid = grid_around(p, spacing, rotation_matrix({1, 2, 2}, 0.5));
+  auto pipe = mesh_image(std::make_shared<Image>(rasterize(p, grid)), fine);
   const Volume<float>& indicator = pipe->preprocess()->indicator;
   TetMesh before = pipe->mesh()->mesh;
   std::vector<char> boundary(before.vertices.size(), 0);

@@ -37,7 +37,8 @@ double max_surface_distance(const opt::WorkMesh& m, const opt::LevelSetSurface& 
       tbb::blocked_range<std::size_t>(0, m.vertex_count(), 1024), 0.0,
       [&](const tbb::blocked_range<std::size_t>& r, double d) {
         for (std::size_t v = r.begin(); v != r.end(); ++v)
-          if (select[v]) d = std::max(d, surface.distance(m.pos[v]));
+          if (select[v] && !m.vertex_tets[v].empty())  // not removed (corners, collapses)
+            d = std::max(d, surface.distance(m.pos[v]));
         return d;
       },
       [](double a, double b) { return std::max(a, b); });
@@ -180,8 +181,8 @@ bool MeshOptimizer::step(const Progress& progress) {
     });
   }
   const std::size_t changes = flips.edge_removals + flips.face_flips + flips.boundary_flips +
-                              flips.corner_removals + flips.collapsed_edges + odt.edge_removals + odt.face_flips +
-                              odt.moved_interior + smooth.moved_interior + smooth.moved_surface +
+                              flips.corner_removals + flips.collapsed_edges + odt.edge_removals +
+                              odt.face_flips + odt.moved_interior + smooth.moved_interior + smooth.moved_surface +
                               snapped.moved_surface + snapped.snapped_surface + inserted.inserted;
   if (changes == 0 || pass >= options_.max_passes) finished_ = true;
   // Full figures after every pass, or only for the last one.

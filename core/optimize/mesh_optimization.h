@@ -17,13 +17,13 @@
 //      vertices along the sub-voxel surface (0.5 level of the smoothed indicator);
 //   4. where none of that helped (needles on tiny boundary triangles, wedges across thick parts
 //      with no vertex inside), an interior vertex is inserted (cavity + star re-triangulation).
-// A change is kept only when the worst tet it makes is better than the worst it replaces (ODT:
-// no tet turns bad, no bad tet gets worse), so the worst tet never gets worse (once no tet is
-// bad, none turns bad); new tets are
-// positively oriented and fill the region of the ones they replace, so validity and the
-// boundary's topology are kept. Input vertices keep their order (only removed corners and
-// collapsed vertices leave gaps, see OptimizationResult::vertex_origin); inserted ones are appended. Deterministic: the same
-// mesh and options give the same result, whatever the thread count.
+// A change is kept only when the worst tet it makes is better than the worst it replaces (ODT
+// and snapping: no tet turns bad, no bad tet gets worse), so the worst tet never gets worse
+// (once no tet is bad, none turns bad); new tets are positively oriented and fill the region of
+// the ones they replace, so validity and the boundary's topology are kept. Input vertices keep
+// their order (only removed corners and collapsed vertices leave gaps, see
+// OptimizationResult::vertex_origin); inserted ones are appended. Deterministic: the same mesh
+// and options give the same result, whatever the thread count.
 #pragma once
 
 #include <array>
@@ -98,7 +98,8 @@ struct OptimizationResult {
   std::size_t collapsed_edges = 0;    // short edges collapsed, a vertex removed with each
   std::size_t inserted_vertices = 0;  // interior vertices inserted
   // For each vertex of the optimised mesh, the input vertex it is (−1: inserted). Input
-  // vertices keep their order; only corners removed leave gaps. (Filled by optimize_mesh;
+  // vertices keep their order; only removed corners and collapsed vertices leave gaps (an
+  // inserted vertex may be collapsed too). (Filled by optimize_mesh;
   // MeshOptimizer::mesh gives it too.)
   std::vector<std::int32_t> vertex_origin;
 };
@@ -165,8 +166,8 @@ OptimizationResult optimize_mesh(TetMesh& mesh, const Volume<float>* indicator,
 //  "corner_removals","collapsed_edges","inserted_vertices",
 //  "passes":[{"pass","wall_s","cpu_s","flips_s","odt_s","smoothing_s","insertion_s","tets",
 //  "vertices","min_quality","edge_removals","face_flips","boundary_flips","corner_removals",
-//  "collapsed_edges","odt_moved","moved_interior","moved_surface","snapped_surface","inserted", with statistics:
-//  "min_dihedral_deg","max_dihedral_deg","below_deg":{"5","10","15","20"},
+//  "collapsed_edges","odt_moved","moved_interior","moved_surface","snapped_surface","inserted",
+//  with statistics: "min_dihedral_deg","max_dihedral_deg","below_deg":{"5","10","15","20"},
 //  "bins_percent":{measure key: [3]}}]}
 nlohmann::json to_json(const OptimizationResult& result);
 

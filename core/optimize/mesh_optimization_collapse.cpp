@@ -135,14 +135,17 @@ bool plan_collapse(const WorkMesh& m, std::int32_t u, std::int32_t v,
   return true;
 }
 
-double shortest_edge(const WorkMesh& m, const Tet& t, std::int32_t& a, std::int32_t& b) {
-  double best = std::numeric_limits<double>::infinity();
+// The shortest edge of t, when it is at most `ratio` × the next shortest (a needle's).
+bool needle_edge(const WorkMesh& m, const Tet& t, double ratio, std::int32_t& a,
+                 std::int32_t& b) {
+  std::array<std::pair<double, int>, 6> edges;
+  int k = 0;
   for (int i = 0; i < 4; ++i)
-    for (int j = i + 1; j < 4; ++j) {
-      const double d = norm(m.pos[t[i]] - m.pos[t[j]]);
-      if (d < best) best = d, a = t[i], b = t[j];
-    }
-  return best;
+    for (int j = i + 1; j < 4; ++j) edges[k] = {norm(m.pos[t[i]] - m.pos[t[j]]), 4 * i + j}, ++k;
+  std::partial_sort(edges.begin(), edges.begin() + 2, edges.end());
+  a = t[edges[0].second / 4];
+  b = t[edges[0].second % 4];
+  return edges[0].first <= ratio * edges[1].first;
 }
 
 }  // namespace
@@ -159,15 +162,7 @@ PassCounts collapse_short_edges(WorkMesh& m, const CollapseOptions& o) {
     const Tet tet = m.tets[t];
     if (is_dead(tet) || m.quality[t] != q) continue;  // changed by an earlier collapse
     std::int32_t a = -1, b = -1;
-    const double shortest = shortest_edge(m, tet, a, b);
-    double second = std::numeric_limits<double>::infinity();
-    for (int i = 0; i < 4; ++i)
-      for (int j = i + 1; j < 4; ++j) {
-        const double d = norm(m.pos[tet[i]] - m.pos[tet[j]]);
-        if (!((tet[i] == a && tet[j] == b) || (tet[i] == b && tet[j] == a)))
-          second = std::min(second, d);
-      }
-    if (shortest > o.max_length_ratio * second) continue;  // not a needle
+    if (!needle_edge(m, tet, o.max_length_ratio, a, b)) continue;
     // Keep the vertex that is on the surface (or on the boundary) where there is a choice.
     std::array<std::pair<std::int32_t, std::int32_t>, 2> tries{{{a, b}, {b, a}}};
     auto keeps = [&](std::int32_t w) {
