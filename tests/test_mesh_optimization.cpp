@@ -359,6 +359,52 @@ TEST(MeshOptimization, BoundaryVerticesOffTheSurfaceAreSnappedOntoIt) {
   EXPECT_LT(std::abs(qa.volume_mm3 - stage5_mm3), 0.5 * std::abs(qb.volume_mm3 - stage5_mm3));
 }
 
+// Needles (a bad tet whose shortest edge is far shorter than the others) are mended by
+// collapsing that edge: here interior edges of a ball split 4 % of the way along, each split
+// making a ring of needles around the short piece.
+TEST(MeshOptimization, NeedlesAreCollapsed) {
+  const Phantom p = sphere_phantom({0, 0, 0}, 8.0);
+  Parameters fine;
+  fine.r = 0.25;
+  auto pipe = mesh_image(std::make_shared<Image>(rasterize(p, grid_around(p, {0.5, 0.5, 0.6}, rotation_matrix({1, 2, 2}, 0.5)))),
+                         fine);
+  TetMesh before = pipe->mesh()->mesh;
+  std::vector<char> boundary(before.vertices.size(), 0), used(before.vertices.size(), 0);
+  for (const Triangle& f : boundary_triangles(before))
+    for (std::int32_t v : f) boundary[v] = 1;
+  std::size_t splits = 0;
+  const std::size_t tets_in = before.tets.size();
+  for (std::size_t t = 0; t < tets_in && splits < 10; ++t) {
+    const std::int32_t a = before.tets[t][0], b = before.tets[t][1];
+    if (boundary[a] || boundary[b] || used[a] || used[b]) continue;
+    used[a] = used[b] = 1;
+    const std::int32_t m = std::int32_t(before.vertices.size());
+    before.vertices.push_back(before.vertices[a] + (before.vertices[b] - before.vertices[a]) * 0.04);
+    // Every tet around edge (a, b) into two: a → m in one, b → m in the other (orientation kept).
+    for (std::size_t u = 0; u < tets_in; ++u) {
+      Tet& k = before.tets[u];
+      const bool has_a = std::find(k.begin(), k.end(), a) != k.end();
+      const bool has_b = std::find(k.begin(), k.end(), b) != k.end();
+      if (!has_a || !has_b) continue;
+      Tet other = k;
+      for (std::int32_t& w : k) w = w == b ? m : w;
+      for (std::int32_t& w : other) w = w == a ? m : w;
+      before.tets.push_back(other);
+      if (!before.labels.empty()) before.labels.push_back(before.labels[u]);
+    }
+    ++splits;
+  }
+  ASSERT_EQ(splits, 10u);
+  ASSERT_TRUE(check_validity(before).valid);
+  TetMesh after = before;
+  const OptimizationResult r = optimize_mesh(after, &pipe->preprocess()->indicator);
+  print_stats("needles", r);
+  EXPECT_GE(r.collapsed_edges, splits);
+  const QualityReport q = expect_improved(before, after, r, 0.5);
+  EXPECT_GE(q.dihedral.min_deg, 15.0);
+  EXPECT_EQ(q.validity.boundary.euler_characteristic, 2);
+}
+
 TEST(MeshOptimization, DeterministicAcrossRunsAndThreadCounts) {
   const Phantom p = torus_phantom({0, 0, 0}, 8.0, 3.0);
   auto pipe = mesh_phantom(p, {0.6, 0.7, 0.8});
