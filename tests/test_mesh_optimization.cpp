@@ -376,12 +376,15 @@ TEST(MeshOptimization, NeedlesAreCollapsed) {
   const std::size_t tets_in = before.tets.size();
   for (std::size_t t = 0; t < tets_in && splits < 10; ++t) {
     const std::int32_t a = before.tets[t][0], b = before.tets[t][1];
+    if (a >= std::int32_t(boundary.size()) || b >= std::int32_t(boundary.size())) continue;  // a midpoint of an earlier split
     if (boundary[a] || boundary[b] || used[a] || used[b]) continue;
     used[a] = used[b] = 1;
     const std::int32_t m = std::int32_t(before.vertices.size());
     before.vertices.push_back(before.vertices[a] + (before.vertices[b] - before.vertices[a]) * 0.04);
     // Every tet around edge (a, b) into two: a → m in one, b → m in the other (orientation kept).
-    for (std::size_t u = 0; u < tets_in; ++u) {
+    // Halves of earlier splits count too: they may hold the edge.
+    const std::size_t tets_now = before.tets.size();
+    for (std::size_t u = 0; u < tets_now; ++u) {
       Tet& k = before.tets[u];
       const bool has_a = std::find(k.begin(), k.end(), a) != k.end();
       const bool has_b = std::find(k.begin(), k.end(), b) != k.end();
