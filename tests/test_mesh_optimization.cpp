@@ -366,22 +366,24 @@ TEST(MeshOptimization, NeedlesAreCollapsed) {
   const Phantom p = sphere_phantom({0, 0, 0}, 8.0);
   Parameters fine;
   fine.r = 0.25;
-  auto pipe = mesh_image(std::make_shared<Image>(rasterize(p, grid_around(p, {0.5, 0.5, 0.6}, rotation_matrix({1, 2, 2}, 0.5)))),
-                         fine);
+  const Grid grid = grid_around(p, {0.5, 0.5, 0.6}, rotation_matrix({1, 2, 2}, 0.5));
+  auto pipe = mesh_image(std::make_shared<Image>(rasterize(p, grid)), fine);
   TetMesh before = pipe->mesh()->mesh;
   std::vector<char> boundary(before.vertices.size(), 0), used(before.vertices.size(), 0);
   for (const Triangle& f : boundary_triangles(before))
     for (std::int32_t v : f) boundary[v] = 1;
   std::size_t splits = 0;
   const std::size_t tets_in = before.tets.size();
+  const std::int32_t vertices_in = std::int32_t(before.vertices.size());
   for (std::size_t t = 0; t < tets_in && splits < 10; ++t) {
     const std::int32_t a = before.tets[t][0], b = before.tets[t][1];
-    if (a >= std::int32_t(boundary.size()) || b >= std::int32_t(boundary.size())) continue;  // a midpoint of an earlier split
+    if (a >= vertices_in || b >= vertices_in) continue;  // a midpoint of an earlier split
     if (boundary[a] || boundary[b] || used[a] || used[b]) continue;
     used[a] = used[b] = 1;
     const std::int32_t m = std::int32_t(before.vertices.size());
-    before.vertices.push_back(before.vertices[a] + (before.vertices[b] - before.vertices[a]) * 0.04);
-    // Every tet around edge (a, b) into two: a → m in one, b → m in the other (orientation kept).
+    const Vec3 pa = before.vertices[a], pb = before.vertices[b];
+    before.vertices.push_back(pa + (pb - pa) * 0.04);
+    // Each tet around edge (a, b) into two: a → m in one, b → m in the other (orientation kept).
     // Halves of earlier splits count too: they may hold the edge.
     const std::size_t tets_now = before.tets.size();
     for (std::size_t u = 0; u < tets_now; ++u) {

@@ -182,8 +182,9 @@ bool MeshOptimizer::step(const Progress& progress) {
   }
   const std::size_t changes = flips.edge_removals + flips.face_flips + flips.boundary_flips +
                               flips.corner_removals + flips.collapsed_edges + odt.edge_removals +
-                              odt.face_flips + odt.moved_interior + smooth.moved_interior + smooth.moved_surface +
-                              snapped.moved_surface + snapped.snapped_surface + inserted.inserted;
+                              odt.face_flips + odt.moved_interior + smooth.moved_interior +
+                              smooth.moved_surface + snapped.moved_surface +
+                              snapped.snapped_surface + inserted.inserted;
   if (changes == 0 || pass >= options_.max_passes) finished_ = true;
   // Full figures after every pass, or only for the last one.
   PassStats stats = statistics(pass, pass_statistics_ || finished_);
