@@ -133,3 +133,29 @@ TEST(SurfaceSampling, ChordToleranceCapsTheRadiusWhereLfsIsLarge) {
   EXPECT_NEAR(area_weighted_spacing_mm(b, pre.lfs_mm, capped),
               area_weighted_spacing_mm(a, pre.lfs_mm, plain), 0.03 * 0.4 * R);
 }
+
+// The lfs cap: on a sphere (lfs = R) capped at R/2 the radius is r·R/2, so ≈ 4× the samples,
+// every boundary voxel within r·R/2 of one; a cap at or above every lfs changes nothing; and
+// the interior spacing that matches the surface stays r·R.
+TEST(SurfaceSampling, LfsCapSamplesFlatPartsAsFinelyAsTheCap) {
+  const double R = 15.0;
+  const Phantom p = sphere_phantom({0, 0, 0}, R);
+  const PreprocessResult pre = preprocess_phantom(p, {0.5, 0.5, 0.6}, rotation_matrix({0, 0, 1}, 0));
+  SurfaceSamplingOptions plain;
+  plain.r = 0.4;
+  SurfaceSamplingOptions capped = plain;
+  capped.surface_lfs_max_mm = R / 2;
+  const SurfaceSamples a = sample_surface(pre, plain), b = sample_surface(pre, capped);
+  EXPECT_EQ(b.surface_lfs_max_mm, R / 2);
+  const double ratio = double(b.voxels.size()) / double(a.voxels.size());
+  EXPECT_GT(ratio, 3.0);
+  EXPECT_LT(ratio, 5.5);
+  EXPECT_LT(worst_coverage_ratio(pre, b, capped), 1.0);
+  EXPECT_DOUBLE_EQ(sampling_radius_mm(R, capped), 0.4 * R / 2);
+  SurfaceSamplingOptions loose = plain;
+  loose.surface_lfs_max_mm =
+      *std::max_element(pre.lfs_mm.data.begin(), pre.lfs_mm.data.end());
+  EXPECT_EQ(sample_surface(pre, loose).voxels, a.voxels);
+  EXPECT_NEAR(area_weighted_spacing_mm(b, pre.lfs_mm, capped),
+              area_weighted_spacing_mm(a, pre.lfs_mm, plain), 0.03 * 0.4 * R);
+}

@@ -103,6 +103,12 @@ std::vector<ParameterSpec> make_registry() {
                   "boundary triangle stays within δ of a surface curved with radius lfs (mm); 0: "
                   "r·lfs alone.",
        .lo = 0, .ref = top<&P::chord_tolerance_mm>},
+      {.key = "surface_lfs_max_mm", .cli = "surface-lfs-max", .label = "surface lfs max",
+       .unit = "mm", .stage = S::surface,
+       .tooltip = "The surface is sampled as if lfs were at most this (mm), so its flat parts "
+                  "still follow the segmentation's voxel-scale detail; the interior spacing "
+                  "stays as without it. 0: no cap.",
+       .lo = 0, .zero_means = "off", .ref = top<&P::surface_lfs_max_mm>},
       {.key = "target_vertices", .cli = "vertices", .label = "vertices", .stage = S::surface,
        .tooltip = "Approximate vertex count of the mesh: r and the interior points are scaled "
                   "together to reach it, keeping their balance (0: off, r and the interior "

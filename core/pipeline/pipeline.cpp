@@ -38,6 +38,7 @@ SurfaceSamplingOptions surface_options(const Parameters& p) {
   SurfaceSamplingOptions o;
   o.r = p.r;
   o.chord_tolerance_mm = p.chord_tolerance_mm;
+  o.surface_lfs_max_mm = p.surface_lfs_max_mm;
   o.project_to_surface = p.project_samples;
   return o;
 }

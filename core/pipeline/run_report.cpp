@@ -86,6 +86,10 @@ nlohmann::json run_report(const Pipeline& pipe) {
                   {"sigma_density_mm", r.sigma_density_mm},
                   {"epsilon_mm", r.epsilon_mm}};
   }
+  if (const SurfaceSamples* s = pipe.surface())
+    j["surface_sampling"] = {{"r", pipe.sized_parameters().r},
+                             {"surface_lfs_max_mm", s->surface_lfs_max_mm},
+                             {"projection_failures", s->projection_failures}};
   json counts = json::object();
   if (const SurfaceSamples* s = pipe.surface()) counts["surface_samples"] = s->world.size();
   if (const LloydStepper* l = pipe.lloyd()) counts["interior_samples"] = l->sites_world().size();

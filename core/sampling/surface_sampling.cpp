@@ -125,13 +125,13 @@ SurfaceSamples sample_surface(const PreprocessResult& pre, const SurfaceSampling
   const std::size_t n = F.size();
   std::vector<Vec3> pos(n);
   std::vector<double> lfs(n);
-  // With a chord cap, the algorithm runs on lfs' = radius / r.
-  const double delta = options.chord_tolerance_mm;
+  // With a cap, the algorithm runs on lfs' = radius / r.
+  const bool capped = options.chord_tolerance_mm > 0 || options.surface_lfs_max_mm > 0;
   for (std::size_t i = 0; i < n; ++i) {
     const auto c = grid.ijk(std::size_t(F[i]));
     pos[i] = grid.index_to_local({double(c[0]), double(c[1]), double(c[2])});
     lfs[i] = pre.lfs_mm.data[F[i]];
-    if (delta > 0) lfs[i] = sampling_radius_mm(lfs[i], options) / options.r;
+    if (capped) lfs[i] = sampling_radius_mm(lfs[i], options) / options.r;
   }
   const double max_spacing = std::max({grid.spacing.x, grid.spacing.y, grid.spacing.z});
   const PointGrid points(pos, 4.0 * max_spacing);  // the boundary voxels, for the r-cover
@@ -143,6 +143,7 @@ SurfaceSamples sample_surface(const PreprocessResult& pre, const SurfaceSampling
   for (std::size_t i = 0; i < n; ++i) key[i] = -(1.0 - r2) * lfs[i] * lfs[i];
   ItemHeap heap(key);  // the points still in F
   SurfaceSamples out;
+  out.surface_lfs_max_mm = options.surface_lfs_max_mm;
   while (!heap.empty()) {
     const std::int32_t p = heap.top();
     heap.remove(p);

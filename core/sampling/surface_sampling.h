@@ -20,6 +20,11 @@ struct SurfaceSamplingOptions {
   // Chord tolerance δ (mm, 0: none): where lfs is large, r·lfs is capped at √(8·δ·lfs), so a
   // chord between two samples on a surface curved with radius ≥ lfs stays within δ of it.
   double chord_tolerance_mm = 0;
+  // The surface is sampled as if lfs were at most this (mm; 0: no cap). A segmentation carries
+  // detail a voxel or two across (terraces of thick slices, bumps) that the pruned medial axis
+  // does not see; without a cap the flattest parts, where lfs is largest, get the longest
+  // chords and follow the segmentation worst.
+  double surface_lfs_max_mm = 0;
   bool project_to_surface = true;   // move samples onto the 0.5 level of the smoothed indicator
   double max_projection_voxels = 1.5;  // in largest voxel spacings; a projection moving
                                        // farther keeps the voxel centre
@@ -33,6 +38,7 @@ struct SurfaceSamples {
   // 2σ². The order of Algorithm 1 depends on it alone, so no sample depends on σ.
   std::vector<float> priority_mm2;
   std::size_t projection_failures = 0;  // samples left at the voxel centre
+  double surface_lfs_max_mm = 0;        // the cap of lfs they were taken with (mm; 0: none)
 };
 
 // Eq. (3)'s energy of a sample of priority `priority_mm2`, for a σ in mm.
@@ -47,13 +53,14 @@ SurfaceSamples sample_surface(const PreprocessResult& pre, const SurfaceSampling
 // the surface area each one covers (∝ c², c its radius: s, or less by the chord cap),
 // Σ c² s / Σ c² (mm). Samples crowd where lfs is small, so this matches the bulk of the surface
 // rather than its fine parts; and the chord cap, which adds samples on flat parts, leaves it
-// (an area-weighted mean over the surface) as it was. 0 without samples.
+// (an area-weighted mean over the surface) as it was; so does the lfs cap. 0 without samples.
 double area_weighted_spacing_mm(const SurfaceSamples& samples, const Volume<float>& lfs_mm,
                                 const SurfaceSamplingOptions& options);
 
-// The radius a sample at a voxel of this lfs covers: r·lfs, capped at √(8·δ·lfs) by a chord
-// tolerance δ > 0 (mm).
+// The radius a sample at a voxel of this lfs covers: r·lfs with lfs capped at
+// surface_lfs_max_mm (when > 0), and at most √(8·δ·lfs) by a chord tolerance δ > 0 (mm).
 inline double sampling_radius_mm(double lfs_mm, const SurfaceSamplingOptions& options) {
+  if (options.surface_lfs_max_mm > 0) lfs_mm = std::min(lfs_mm, options.surface_lfs_max_mm);
   const double s = options.r * lfs_mm, delta = options.chord_tolerance_mm;
   return delta > 0 ? std::min(s, std::sqrt(8.0 * delta * lfs_mm)) : s;
 }
