@@ -135,17 +135,20 @@ bool plan_collapse(const WorkMesh& m, std::int32_t u, std::int32_t v,
   return true;
 }
 
-// The shortest edge of t, when it is at most `ratio` × the next shortest (a needle's).
-bool needle_edge(const WorkMesh& m, const Tet& t, double ratio, std::int32_t& a,
-                 std::int32_t& b) {
+// The edges of t at most `ratio` × its longest one, shortest first: a needle's short edge, and
+// each edge of a small triangle under a far vertex (a wedge: three vertices close together,
+// whose shortest edge is not much shorter than the next).
+int short_edges(const WorkMesh& m, const Tet& t, double ratio,
+                std::array<std::pair<std::int32_t, std::int32_t>, 6>& out) {
   std::array<std::pair<double, int>, 6> edges;
   int k = 0;
   for (int i = 0; i < 4; ++i)
     for (int j = i + 1; j < 4; ++j) edges[k] = {norm(m.pos[t[i]] - m.pos[t[j]]), 4 * i + j}, ++k;
-  std::partial_sort(edges.begin(), edges.begin() + 2, edges.end());
-  a = t[edges[0].second / 4];
-  b = t[edges[0].second % 4];
-  return edges[0].first <= ratio * edges[1].first;
+  std::sort(edges.begin(), edges.end());
+  int n = 0;
+  for (const auto& [length, code] : edges)
+    if (length <= ratio * edges[5].first) out[n++] = {t[code / 4], t[code % 4]};
+  return n;
 }
 
 }  // namespace
@@ -161,21 +164,26 @@ PassCounts collapse_short_edges(WorkMesh& m, const CollapseOptions& o) {
   for (const auto& [q, t] : bad) {
     const Tet tet = m.tets[t];
     if (is_dead(tet) || m.quality[t] != q) continue;  // changed by an earlier collapse
-    std::int32_t a = -1, b = -1;
-    if (!needle_edge(m, tet, o.max_length_ratio, a, b)) continue;
-    // Keep the vertex that is on the surface (or on the boundary) where there is a choice.
-    std::array<std::pair<std::int32_t, std::int32_t>, 2> tries{{{a, b}, {b, a}}};
+    std::array<std::pair<std::int32_t, std::int32_t>, 6> edges;
+    const int n = short_edges(m, tet, o.max_length_ratio, edges);
     auto keeps = [&](std::int32_t w) {
       return 2 * int(m.on_boundary[w]) + int(!m.on_surface.empty() && m.on_surface[w]);
     };
-    if (keeps(b) > keeps(a)) std::swap(tries[0], tries[1]);
-    for (const auto& [u, v] : tries) {
-      if (!plan_collapse(m, u, v, o.surface, o.max_face_distance_mm, c)) continue;
-      for (std::int32_t r : c.removed) m.remove_tet(r);
-      for (std::size_t i = 0; i < c.added.size(); ++i)
-        m.add_tet(c.added[i].first, c.added[i].second, c.quality[i]);
-      ++counts.collapsed_edges;
-      break;
+    bool collapsed = false;
+    for (int e = 0; e < n && !collapsed; ++e) {
+      const auto [a, b] = edges[e];
+      // Keep the vertex that is on the surface (or on the boundary) where there is a choice.
+      std::array<std::pair<std::int32_t, std::int32_t>, 2> tries{{{a, b}, {b, a}}};
+      if (keeps(b) > keeps(a)) std::swap(tries[0], tries[1]);
+      for (const auto& [u, v] : tries) {
+        if (!plan_collapse(m, u, v, o.surface, o.max_face_distance_mm, c)) continue;
+        for (std::int32_t r : c.removed) m.remove_tet(r);
+        for (std::size_t i = 0; i < c.added.size(); ++i)
+          m.add_tet(c.added[i].first, c.added[i].second, c.quality[i]);
+        ++counts.collapsed_edges;
+        collapsed = true;
+        break;
+      }
     }
   }
   return counts;

@@ -217,7 +217,7 @@ PassCounts improve_topology(WorkMesh& mesh, const TopologyOptions& options);
 
 struct CollapseOptions {
   double bad_below = 1;           // tets of lower quality are worked on …
-  double max_length_ratio = 0.4;  // … when their shortest edge is at most this × the next one
+  double max_length_ratio = 0.4;  // … through each edge at most this × their longest one
   const LevelSetSurface* surface = nullptr;  // boundary edges collapse only with a surface, and
   double max_face_distance_mm = 0;           // the new boundary triangles within this of it
 };
