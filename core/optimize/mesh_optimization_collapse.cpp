@@ -1,7 +1,8 @@
-// Edge collapse for needles: a bad tet whose shortest edge (u, v) is much shorter than its
-// others (two samples that landed close together, a snapped vertex beside a surface sample)
-// cannot be mended by flips or moves, since every tet around the edge is as bad. Removing v and
-// joining its star to u removes the edge. A collapse is made only when
+// Edge collapse for needles and wedges: a bad tet with an edge (u, v) much shorter than its
+// longest (two samples that landed close together, a snapped vertex beside a surface sample,
+// a tiny boundary triangle under a far vertex) cannot be mended by flips or moves, since every
+// tet around the edge is as bad. Removing v and joining its star to u removes the edge. A
+// collapse is made only when
 //   - it keeps the topology: the link condition (the vertices and triangles u and v both see are
 //     exactly those around the edge, the boundary counted as one more vertex seen by every
 //     boundary vertex),
