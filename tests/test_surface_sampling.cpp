@@ -34,6 +34,12 @@ double worst_coverage_ratio(const PreprocessResult& pre, const SurfaceSamples& s
   return worst;
 }
 
+// A sphere (lfs = R everywhere) in voxels of 0.5 × 0.5 × 0.6 mm.
+PreprocessResult sphere_of_radius(double R) {
+  return preprocess_phantom(sphere_phantom({0, 0, 0}, R), {0.5, 0.5, 0.6},
+                            rotation_matrix({0, 0, 1}, 0));
+}
+
 }  // namespace
 
 TEST(SurfaceSampling, EveryBoundaryVoxelIsRSampled) {
@@ -109,53 +115,51 @@ TEST(SurfaceSampling, DeterministicAndRejectsBadParameters) {
   for (float k : a.priority_mm2) EXPECT_TRUE(std::isfinite(surface_energy(k, 2.0)));
 }
 
-// On a sphere lfs = R everywhere: r·R = 6 mm apart without a chord tolerance; with δ = 0.1 mm
-// the radius is √(8·δ·R) = 3.46 mm, so ≈ (6 / 3.46)² = 3× the samples, every boundary voxel
-// within that radius of one; a δ at least r²·R/8 caps nothing. The interior spacing that
-// matches the surface (an area-weighted mean of r·lfs) is r·R either way.
-TEST(SurfaceSampling, ChordToleranceCapsTheRadiusWhereLfsIsLarge) {
-  const double R = 15.0;
-  const Phantom p = sphere_phantom({0, 0, 0}, R);
-  const PreprocessResult pre = preprocess_phantom(p, {0.5, 0.5, 0.6}, rotation_matrix({0, 0, 1}, 0));
+namespace {
+
+// On a sphere of radius R (lfs = R), sampled with r = 0.4: a cap gives between min_ratio and
+// max_ratio × the samples without it, every boundary voxel within the capped radius of one; a
+// loose cap changes nothing; and the interior spacing that matches the surface (an
+// area-weighted mean of r·lfs) stays r·R.
+void expect_cap_on_sphere(double R, const SurfaceSamplingOptions& capped,
+                          const SurfaceSamplingOptions& loose, double min_ratio,
+                          double max_ratio) {
+  const PreprocessResult pre = sphere_of_radius(R);
   SurfaceSamplingOptions plain;
   plain.r = 0.4;
-  SurfaceSamplingOptions capped = plain;
-  capped.chord_tolerance_mm = 0.1;
   const SurfaceSamples a = sample_surface(pre, plain), b = sample_surface(pre, capped);
   const double ratio = double(b.voxels.size()) / double(a.voxels.size());
-  EXPECT_GT(ratio, 2.2);
-  EXPECT_LT(ratio, 4.0);
+  EXPECT_GT(ratio, min_ratio);
+  EXPECT_LT(ratio, max_ratio);
   EXPECT_LT(worst_coverage_ratio(pre, b, capped), 1.0);
-  EXPECT_LT(sampling_radius_mm(R, capped), 0.6 * sampling_radius_mm(R, plain));
-  SurfaceSamplingOptions loose = plain;
-  loose.chord_tolerance_mm = 0.4 * 0.4 * 20.0 / 8.0;  // above r²·lfs/8 for every lfs ≤ 20
   EXPECT_EQ(sample_surface(pre, loose).voxels, a.voxels);
   EXPECT_NEAR(area_weighted_spacing_mm(b, pre.lfs_mm, capped),
               area_weighted_spacing_mm(a, pre.lfs_mm, plain), 0.03 * 0.4 * R);
 }
 
-// The lfs cap: on a sphere (lfs = R) capped at R/2 the radius is r·R/2, so ≈ 4× the samples,
-// every boundary voxel within r·R/2 of one; a cap at or above every lfs changes nothing; and
-// the interior spacing that matches the surface stays r·R.
+}  // namespace
+
+// r·R = 6 mm apart without a chord tolerance; with δ = 0.1 mm the radius is √(8·δ·R) =
+// 3.46 mm, so ≈ (6 / 3.46)² = 3× the samples; a δ at least r²·R/8 caps nothing.
+TEST(SurfaceSampling, ChordToleranceCapsTheRadiusWhereLfsIsLarge) {
+  const double R = 15.0;
+  SurfaceSamplingOptions capped, loose;
+  capped.r = loose.r = 0.4;
+  capped.chord_tolerance_mm = 0.1;
+  loose.chord_tolerance_mm = 0.4 * 0.4 * 20.0 / 8.0;  // above r²·lfs/8 for every lfs ≤ 20
+  EXPECT_LT(sampling_radius_mm(R, capped), 0.6 * 0.4 * R);
+  expect_cap_on_sphere(R, capped, loose, 2.2, 4.0);
+}
+
+// The lfs cap at R/2: the radius is r·R/2, so ≈ 4× the samples; a cap at or above every lfs
+// changes nothing; the samples record their cap.
 TEST(SurfaceSampling, LfsCapSamplesFlatPartsAsFinelyAsTheCap) {
   const double R = 15.0;
-  const Phantom p = sphere_phantom({0, 0, 0}, R);
-  const PreprocessResult pre = preprocess_phantom(p, {0.5, 0.5, 0.6}, rotation_matrix({0, 0, 1}, 0));
-  SurfaceSamplingOptions plain;
-  plain.r = 0.4;
-  SurfaceSamplingOptions capped = plain;
+  SurfaceSamplingOptions capped, loose;
+  capped.r = loose.r = 0.4;
   capped.surface_lfs_max_mm = R / 2;
-  const SurfaceSamples a = sample_surface(pre, plain), b = sample_surface(pre, capped);
-  EXPECT_EQ(b.surface_lfs_max_mm, R / 2);
-  const double ratio = double(b.voxels.size()) / double(a.voxels.size());
-  EXPECT_GT(ratio, 3.0);
-  EXPECT_LT(ratio, 5.5);
-  EXPECT_LT(worst_coverage_ratio(pre, b, capped), 1.0);
+  loose.surface_lfs_max_mm = 20.0;  // above every lfs of the sphere (≤ its radius)
   EXPECT_DOUBLE_EQ(sampling_radius_mm(R, capped), 0.4 * R / 2);
-  SurfaceSamplingOptions loose = plain;
-  loose.surface_lfs_max_mm =
-      *std::max_element(pre.lfs_mm.data.begin(), pre.lfs_mm.data.end());
-  EXPECT_EQ(sample_surface(pre, loose).voxels, a.voxels);
-  EXPECT_NEAR(area_weighted_spacing_mm(b, pre.lfs_mm, capped),
-              area_weighted_spacing_mm(a, pre.lfs_mm, plain), 0.03 * 0.4 * R);
+  EXPECT_EQ(sample_surface(sphere_of_radius(R), capped).surface_lfs_max_mm, R / 2);
+  expect_cap_on_sphere(R, capped, loose, 3.0, 5.5);
 }
