@@ -42,6 +42,14 @@ void expect_valid(const QualityReport& q) {
   EXPECT_TRUE(v.boundary.closed_manifold);
 }
 
+// 1 for each vertex on a boundary face, from the faces themselves.
+std::vector<std::uint8_t> boundary_flags(const TetMesh& mesh) {
+  std::vector<std::uint8_t> on(mesh.vertices.size(), 0);
+  for (const Triangle& f : boundary_triangles(mesh))
+    for (std::int32_t v : f) on[std::size_t(v)] = 1;
+  return on;
+}
+
 }  // namespace
 
 TEST(MeshGeneration, SphereIsABall) {
@@ -118,11 +126,16 @@ TEST(MeshGeneration, PeelingAloneRepairsTheLiversPinches) {
   const RefinedMesh rounds = mesh();
   EXPECT_FALSE(rounds.pinched_samples.empty());
   EXPECT_TRUE(rounds.repair.manifold);
+  // The boundary vertices the mesher reports, from its cells (after rule 4 dropped the
+  // specks) or, once it peeled, from the faces: the same as the mesh's own faces say.
+  EXPECT_GT(rounds.removed_small_components, 0u);
+  EXPECT_TRUE(rounds.on_boundary == boundary_flags(rounds.mesh));
   generation.max_pinch_passes = 0;
   const RefinedMesh peeled = mesh();
   EXPECT_TRUE(peeled.pinched_samples.empty());
   EXPECT_GT(peeled.repair.edge_fans_removed + peeled.repair.vertex_fans_removed, 0u);
   EXPECT_TRUE(peeled.repair.manifold);
+  EXPECT_TRUE(peeled.on_boundary == boundary_flags(peeled.mesh));
   const QualityReport q = compute_quality(peeled.mesh);
   expect_valid(q);
   EXPECT_EQ(q.validity.boundary.components,

@@ -1,9 +1,9 @@
 #include "base/tet_mesh.h"
 
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include <algorithm>
-#include <atomic>
 #include <stdexcept>
 #include <string>
 
@@ -19,14 +19,21 @@ std::vector<std::int64_t> face_neighbours(std::size_t num_vertices, const std::v
         throw std::invalid_argument("tet vertex " + std::to_string(v) + " out of range");
   // Faces are bucketed by their smallest vertex (a counting sort, linear time); a bucket
   // holds only the few faces around one vertex, so sorting inside buckets is cheap. This is
-  // several times faster than sorting all 4·#tets keyed faces for meshes of ~1M tets. Counts
-  // and entries are placed by all threads at once, so a bucket's entries come in any order
-  // until it is sorted, by key and then face.
+  // several times faster than sorting all 4·#tets keyed faces for meshes of ~1M tets. Each
+  // thread owns a range of vertices and scans every tet for the faces of its buckets: scans
+  // are cheap, an atomic count per face was not (a third of the time on two cores).
+  const std::size_t parts = std::size_t(std::max(1, tbb::this_task_arena::max_concurrency()));
+  const auto part_begin = [&](std::size_t p) {
+    return std::int64_t(num_vertices * p / parts);
+  };
   std::vector<std::int64_t> bucket_start(num_vertices + 1, 0);
-  tbb::parallel_for(std::size_t(0), tets.size(), [&](std::size_t t) {
-    for (const Triangle& f : outward_faces(tets[t]))
-      std::atomic_ref<std::int64_t>(bucket_start[std::min({f[0], f[1], f[2]}) + 1])
-          .fetch_add(1, std::memory_order_relaxed);
+  tbb::parallel_for(std::size_t(0), parts, [&](std::size_t p) {
+    const std::int64_t lo = part_begin(p), hi = part_begin(p + 1);
+    for (const Tet& t : tets)
+      for (const Triangle& f : outward_faces(t)) {
+        const std::int64_t smallest = std::min({f[0], f[1], f[2]});
+        if (smallest >= lo && smallest < hi) ++bucket_start[std::size_t(smallest) + 1];
+      }
   });
   for (std::size_t v = 0; v < num_vertices; ++v) bucket_start[v + 1] += bucket_start[v];
 
@@ -37,16 +44,18 @@ std::vector<std::int64_t> face_neighbours(std::size_t num_vertices, const std::v
   };
   std::vector<Entry> entries;
   resize_large(entries, num_faces);  // large buffers are faulted in on all threads
-  std::vector<std::int64_t> fill(bucket_start.begin(), bucket_start.end() - 1);
-  tbb::parallel_for(std::size_t(0), tets.size(), [&](std::size_t t) {
-    const auto faces = outward_faces(tets[t]);
-    for (int i = 0; i < 4; ++i) {
-      std::array<std::int32_t, 3> f = faces[i];
-      std::sort(f.begin(), f.end());
-      const std::uint64_t key = (std::uint64_t(std::uint32_t(f[1])) << 32) | std::uint32_t(f[2]);
-      const std::int64_t at =
-          std::atomic_ref<std::int64_t>(fill[f[0]]).fetch_add(1, std::memory_order_relaxed);
-      entries[at] = {key, std::int64_t(4 * t + i)};
+  tbb::parallel_for(std::size_t(0), parts, [&](std::size_t p) {
+    const std::int64_t lo = part_begin(p), hi = part_begin(p + 1);
+    std::vector<std::int64_t> fill(bucket_start.begin() + lo, bucket_start.begin() + hi);
+    for (std::size_t t = 0; t < tets.size(); ++t) {
+      const auto faces = outward_faces(tets[t]);
+      for (int i = 0; i < 4; ++i) {
+        std::array<std::int32_t, 3> f = faces[i];
+        std::sort(f.begin(), f.end());
+        if (f[0] < lo || f[0] >= hi) continue;
+        const std::uint64_t key = (std::uint64_t(std::uint32_t(f[1])) << 32) | std::uint32_t(f[2]);
+        entries[std::size_t(fill[std::size_t(f[0] - lo)]++)] = {key, std::int64_t(4 * t + i)};
+      }
     }
   });
 

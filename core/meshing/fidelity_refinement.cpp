@@ -159,9 +159,12 @@ FidelityFix find_fidelity_fix(const Mask& mesh_inside, const PreprocessResult& p
 
 std::vector<int> interior_samples_on_boundary(const MeshGenerationResult& m,
                                               std::size_t surface_count) {
-  std::vector<char> on_boundary(m.mesh.vertices.size(), 0);
-  for (const Triangle& t : boundary_triangles(m.mesh))
-    for (int k = 0; k < 3; ++k) on_boundary[std::size_t(t[k])] = 1;
+  std::vector<std::uint8_t> on_boundary = m.on_boundary;
+  if (on_boundary.size() != m.mesh.vertices.size()) {  // a mesh not made by the mesher
+    on_boundary.assign(m.mesh.vertices.size(), 0);
+    for (const Triangle& t : boundary_triangles(m.mesh))
+      for (int k = 0; k < 3; ++k) on_boundary[std::size_t(t[k])] = 1;
+  }
   std::vector<int> out;
   for (std::size_t v = 0; v < on_boundary.size(); ++v)
     if (on_boundary[v] && v < m.vertex_source.size() && m.vertex_source[v] >= 0 &&

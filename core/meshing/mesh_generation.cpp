@@ -680,6 +680,11 @@ MeshGenerationResult DelaunayMesher::mesh() {
   tbb::task_group grouping;
   grouping.run(number_groups);
   std::vector<std::pair<Tet, Delaunay::Cell_handle>> kept;  // indices into B ∪ I
+  // The samples on a kept cell's face whose other side is not kept. Rule 4 keeps or drops
+  // whole face-connected groups, and a sample of a dropped group that a kept one also uses
+  // lies on a face between a kept cell and another around it, so this stays right for every
+  // sample the mesh keeps. Peeling changes faces anywhere: then the mesh's faces decide.
+  std::vector<std::uint8_t> sample_on_boundary(peel ? 0 : std::size_t(nb + ni), 0);
   for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
     if (c->info().fate == pole_cell) continue;
     std::array<Vec3, 4> corners;
@@ -688,6 +693,13 @@ MeshGenerationResult DelaunayMesher::mesh() {
       t[k] = c->vertex(k)->info();
       corners[k] = to_vec(c->vertex(k)->point());
     }
+    if (!peel && c->info().fate == kept_cell)
+      for (int k = 0; k < 4; ++k) {
+        const Delaunay::Cell_handle n = c->neighbor(k);
+        if (!dt.is_infinite(n) && n->info().fate == kept_cell) continue;
+        for (int j = 0; j < 4; ++j)
+          if (j != k) sample_on_boundary[std::size_t(t[j])] = 1;
+      }
     if (c->info().fate == outside_cell) {
       ++out.removed_by_centroid;
       out.removed_outside.push_back(corners);
@@ -736,11 +748,17 @@ MeshGenerationResult DelaunayMesher::mesh() {
     new_index[v] = int(out.mesh.vertices.size());
     out.mesh.vertices.push_back(points[v]);
     out.vertex_source.push_back(v);
+    if (!peel) out.on_boundary.push_back(sample_on_boundary[std::size_t(v)]);
   }
   out.mesh.tets.reserve(tets.size());
   for (const Tet& t : tets)
     out.mesh.tets.push_back(canonical({new_index[t[0]], new_index[t[1]], new_index[t[2]], new_index[t[3]]}));
   tbb::parallel_sort(out.mesh.tets.begin(), out.mesh.tets.end());  // distinct tets: a total order
+  if (peel) {
+    out.on_boundary.assign(out.mesh.vertices.size(), 0);
+    for (const Triangle& f : boundary_triangles(out.mesh))
+      for (std::int32_t v : f) out.on_boundary[std::size_t(v)] = 1;
+  }
   progress("mesh", 1.0);
   return out;
 }

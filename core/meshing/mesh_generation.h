@@ -69,6 +69,8 @@ struct MeshGenerationResult {
   std::size_t unused_samples = 0;         // samples of B ∪ I no kept tet references
   std::vector<int> vertex_source;         // for each mesh vertex: index into B, or |B| + index
                                           // in I (the samples the mesh was built from)
+  std::vector<std::uint8_t> on_boundary;  // for each mesh vertex: 1 if on the boundary surface
+                                          // (from the cells' adjacency: no face sort)
 };
 
 // Stage 5 kept open for refinement: samples can be added to B and dropped from I, and the
