@@ -53,6 +53,22 @@ struct FiguresCache {
   }
 };
 
+// A histogram's bar counts, recomputed only for a new part or another measure (a pass over
+// millions of tets a frame took CPU from the pipeline while jobs ran).
+struct HistogramCache {
+  std::uint64_t generation = 0;  // of the part the counts are of (0: always recomputed)
+  int measure = -1;
+  std::vector<float> counts;
+  const std::vector<float>& get(std::uint64_t part_generation, Measure m,
+                                const std::vector<double>& values, int bars) {
+    if (part_generation != generation || part_generation == 0 || measure != int(m)) {
+      const auto c = render::measure_histogram(values, m, bars);
+      generation = part_generation, measure = int(m), counts.assign(c.begin(), c.end());
+    }
+    return counts;
+  }
+};
+
 // Table I of the drawn mesh (clickable); with `before`, a row of the stage-5 mesh above each.
 void table_one(UiContext& ctx, const render::MeshFigures& after,
                const render::MeshFigures* before) {
@@ -101,18 +117,17 @@ void table_one(UiContext& ctx, const render::MeshFigures& after,
 
 // A clickable histogram of one per-tet measure of the drawn mesh; with `before` (the stage-5
 // mesh's values), its histogram first, on the same scale, not clickable (it is not drawn).
-void histogram(UiContext& ctx, const render::MeshLayers& mesh, Measure m,
-               const std::vector<double>* before) {
+void histogram(UiContext& ctx, const render::MeshLayers& mesh, std::uint64_t generation,
+               Measure m, const std::vector<double>* before, std::uint64_t before_generation) {
   const int bars = 20;
-  const auto counts = render::measure_histogram(mesh.measures[int(m)], m, bars);
-  std::vector<float> values(counts.begin(), counts.end());
+  static HistogramCache after_cache, before_cache;
+  const std::vector<float>& values = after_cache.get(generation, m, mesh.measures[int(m)], bars);
   const render::MeasureScale scale = render::measure_scale(m);
   char overlay[96];
   const float width = ImGui::GetContentRegionAvail().x;
   float top = *std::max_element(values.begin(), values.end());
   if (before) {
-    const auto b = render::measure_histogram(*before, m, bars);
-    std::vector<float> bv(b.begin(), b.end());
+    const std::vector<float>& bv = before_cache.get(before_generation, m, *before, bars);
     top = std::max(top, *std::max_element(bv.begin(), bv.end()));
     std::snprintf(overlay, sizeof overlay, "before: %s over [%.3g, %.3g]", measure_title(m),
                   scale.lo, scale.hi);
@@ -139,7 +154,7 @@ void histogram(UiContext& ctx, const render::MeshLayers& mesh, Measure m,
   sel.bars = bars;
   if (ImGui::IsItemHovered())
     ImGui::SetTooltip("%s: %zu tets (click: highlight)", render::describe(sel).c_str(),
-                      counts[bar]);
+                      std::size_t(values[std::size_t(bar)]));
   if (ImGui::IsItemClicked()) toggle_highlight(ctx.view, sel);
 }
 
@@ -202,8 +217,9 @@ void draw_quality_panel(UiContext& ctx) {
                          "min dihedral", "max dihedral",   "radius-edge"};
   ImGui::SetNextItemWidth(180);
   ImGui::Combo("histogram", &measure, names, 6);
-  histogram(ctx, *scene->mesh, Measure(measure),
-            before ? &scene->unoptimized->measures[measure] : nullptr);
+  histogram(ctx, *scene->mesh, scene->generations.mesh, Measure(measure),
+            before ? &scene->unoptimized->measures[measure] : nullptr,
+            scene->generations.unoptimized);
 
   if (before) {
     ImGui::Text("dihedral angles: min %.2f -> %.2f deg, max %.2f -> %.2f deg",
