@@ -46,7 +46,8 @@ void reexec_with_huge_page_malloc(char** argv) {
       !kernel_offers_huge_pages())
     return;
   std::string wanted = (current.empty() ? "" : current + ":") + kTunable + "=1";
-  if (current.find(kArenaTunable) == std::string::npos) wanted += std::string(":") + kArenaTunable + "=1";
+  if (current.find(kArenaTunable) == std::string::npos)
+    wanted += std::string(":") + kArenaTunable + "=1";
   if (setenv("GLIBC_TUNABLES", wanted.c_str(), 1) != 0) return;
   execv("/proc/self/exe", argv);
   // Still here: the exec failed; run as we are, and leave the environment as it was.
