@@ -65,7 +65,7 @@ void BM_FeatureTransform(benchmark::State& state) {
 
 void BM_SurfaceSampling(benchmark::State& state) {
   const cvt::Pipeline& p = liver();
-  const cvt::SurfaceSamplingOptions options = cvt::surface_options(p.parameters());
+  const cvt::SurfaceSamplingOptions options = cvt::surface_options(p.parameters(), *p.preprocess());
   tbb::global_control limit(tbb::global_control::max_allowed_parallelism, state.range(0));
   std::size_t samples = 0;
   for (auto _ : state) {

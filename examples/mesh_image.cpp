@@ -27,11 +27,13 @@ int main(int argc, char** argv) {
     const Parameters p;
     // 1. The object (every non-zero label), its smoothed indicator and local feature size.
     const PreprocessResult pre = preprocess(image, preprocess_options(p));
-    // 2. Surface samples B: every boundary voxel within r·lfs of one.
-    const SurfaceSamples surface = sample_surface(pre, surface_options(p));
-    // 3. Interior samples I by Lloyd's algorithm, as far apart as the surface samples are (their
-    //    spacing r·lfs, weighted by the area each one covers).
-    LloydStepper lloyd(pre, cvt_options(p, area_weighted_spacing_mm(surface, pre.lfs_mm, surface_options(p))));
+    // 2. Surface samples B: every boundary voxel within r·lfs of one (lfs capped at its median
+    //    over the boundary, so flat parts still follow the voxels).
+    const SurfaceSamplingOptions sampling = surface_options(p, pre);
+    const SurfaceSamples surface = sample_surface(pre, sampling);
+    // 3. Interior samples I by Lloyd's algorithm, as far apart as the surface samples would be
+    //    without the cap (their spacing r·lfs, weighted by the area each one covers).
+    LloydStepper lloyd(pre, cvt_options(p, matching_interior_spacing_mm(pre, surface, sampling)));
     lloyd.run_to_convergence();
     // 4. Drop the interior samples whose Voronoi region reaches the boundary.
     const ShallowResult interior =

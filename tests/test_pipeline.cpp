@@ -145,3 +145,30 @@ TEST(Pipeline, SingleRunFreesItsInputsAndGivesTheSameMesh) {
   once.set_parameters(p);
   EXPECT_THROW(once.run_all(), InputError);
 }
+
+// Stage 2 caps lfs at its median over the boundary unless told otherwise, which only adds
+// surface samples: the interior spacing stays that of the uncapped samples, also where the
+// capped radii fall below the voxel and every boundary voxel becomes a sample.
+TEST(Pipeline, SurfaceLfsCapIsTheMedianAndLeavesTheInteriorSpacing) {
+  auto stage2 = [](double cap) {
+    auto pipe = std::make_unique<Pipeline>();
+    pipe->set_image(torus_image());
+    Parameters p;
+    p.surface_lfs_max_mm = cap;
+    pipe->set_parameters(p);
+    pipe->run_through(Stage::surface);
+    return pipe;
+  };
+  const auto automatic = stage2(0), off = stage2(1000), fine = stage2(0.01), finer = stage2(0.02);
+  const double median = median_boundary_lfs_mm(*automatic->preprocess());
+  EXPECT_GT(median, 0);
+  EXPECT_EQ(automatic->surface()->surface_lfs_max_mm, median);
+  // The torus' lfs varies (its inner rim is closer to the medial circle), so the cap bites.
+  EXPECT_GT(automatic->surface()->world.size(), off->surface()->world.size());
+  EXPECT_EQ(fine->surface()->world.size(), automatic->preprocess()->boundary.size());
+  EXPECT_EQ(fine->default_interior_spacing_mm(), finer->default_interior_spacing_mm());
+  EXPECT_NEAR(fine->default_interior_spacing_mm(), off->default_interior_spacing_mm(),
+              0.01 * off->default_interior_spacing_mm());
+  EXPECT_NEAR(automatic->default_interior_spacing_mm(), off->default_interior_spacing_mm(),
+              0.01 * off->default_interior_spacing_mm());
+}

@@ -107,8 +107,9 @@ std::vector<ParameterSpec> make_registry() {
        .unit = "mm", .stage = S::surface,
        .tooltip = "The surface is sampled as if lfs were at most this (mm), so its flat parts "
                   "still follow the segmentation's voxel-scale detail; the interior spacing "
-                  "stays as without it. 0: no cap.",
-       .lo = 0, .zero_means = "off", .ref = top<&P::surface_lfs_max_mm>},
+                  "stays as without it. Auto: the median lfs over the object's boundary; a "
+                  "value above every lfs (1000) turns it off.",
+       .lo = 0, .zero_means = "auto", .ref = top<&P::surface_lfs_max_mm>},
       {.key = "target_vertices", .cli = "vertices", .label = "vertices", .stage = S::surface,
        .tooltip = "Approximate vertex count of the mesh: r and the interior points are scaled "
                   "together to reach it, keeping their balance (0: off, r and the interior "

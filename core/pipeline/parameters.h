@@ -37,7 +37,7 @@ struct Parameters {
   // Stage 2: surface sampling.
   double r = 0.4;
   double chord_tolerance_mm = 0;
-  double surface_lfs_max_mm = 0;  // 0: no cap
+  double surface_lfs_max_mm = 0;  // 0: auto (median boundary lfs)
   std::int64_t target_vertices = 0;  // --vertices: r and the interior points scaled to reach it
   double sigma_surface_mm = 2.0;
   bool project_samples = true;

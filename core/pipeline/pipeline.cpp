@@ -34,13 +34,24 @@ PreprocessOptions preprocess_options(const Parameters& p) {
   return o;
 }
 
-SurfaceSamplingOptions surface_options(const Parameters& p) {
+SurfaceSamplingOptions surface_options(const Parameters& p, const PreprocessResult& pre) {
   SurfaceSamplingOptions o;
   o.r = p.r;
   o.chord_tolerance_mm = p.chord_tolerance_mm;
-  o.surface_lfs_max_mm = p.surface_lfs_max_mm;
+  o.surface_lfs_max_mm =
+      p.surface_lfs_max_mm > 0 ? p.surface_lfs_max_mm : median_boundary_lfs_mm(pre);
   o.project_to_surface = p.project_samples;
   return o;
+}
+
+double matching_interior_spacing_mm(const PreprocessResult& pre, const SurfaceSamples& samples,
+                                    const SurfaceSamplingOptions& options) {
+  if (options.surface_lfs_max_mm <= 0 && options.chord_tolerance_mm <= 0)
+    return area_weighted_spacing_mm(samples, pre.lfs_mm, options);
+  SurfaceSamplingOptions plain = options;
+  plain.surface_lfs_max_mm = plain.chord_tolerance_mm = 0;
+  plain.project_to_surface = false;  // the count is what matters
+  return area_weighted_spacing_mm(sample_surface(pre, plain), pre.lfs_mm, plain);
 }
 
 CvtOptions cvt_options(const Parameters& p, double default_spacing_mm) {
@@ -102,6 +113,7 @@ void Pipeline::invalidate_from(Stage s) {
     case Stage::surface:
       surface_.reset();
       budget_r_ = 0;
+      interior_spacing_mm_ = 0;
       [[fallthrough]];
     case Stage::cvt:
       lloyd_.reset();
@@ -126,11 +138,6 @@ const TetMesh* Pipeline::final_mesh() const {
   return mesh_ ? &mesh_->mesh : nullptr;
 }
 
-double Pipeline::default_interior_spacing_mm() const {
-  if (!surface_ || surface_->voxels.empty()) return 0;
-  return area_weighted_spacing_mm(*surface_, preprocess_->lfs_mm,
-                                  surface_options(sized_parameters()));
-}
 
 Parameters Pipeline::sized_parameters() const {
   Parameters p = parameters_;
@@ -142,10 +149,10 @@ Parameters Pipeline::sized_parameters() const {
 double Pipeline::budget_r() const {
   // The samples the user's r gives (their count only: no projection), and the interior sites
   // that match them.
-  SurfaceSamplingOptions probe = surface_options(parameters_);
+  SurfaceSamplingOptions probe = surface_options(parameters_, *preprocess_);
   probe.project_to_surface = false;
   const SurfaceSamples s = sample_surface(*preprocess_, probe);
-  const double spacing = area_weighted_spacing_mm(s, preprocess_->lfs_mm, probe);
+  const double spacing = matching_interior_spacing_mm(*preprocess_, s, probe);
   Parameters p = parameters_;
   p.interior_points = 0;
   const CvtResolved r = resolve_cvt_options(cvt_options(p, spacing), preprocess_->object);
@@ -208,11 +215,15 @@ void Pipeline::run_stage(Stage s, const Progress& progress) {
           run_ == Run::once ? std::move(image_) : image_,
           preprocess_options(parameters_), progress));
       break;
-    case Stage::surface:
+    case Stage::surface: {
       if (parameters_.target_vertices > 0) budget_r_ = budget_r();
-      surface_ = std::make_unique<SurfaceSamples>(
-          sample_surface(*preprocess_, surface_options(sized_parameters()), progress));
+      const SurfaceSamplingOptions options = surface_options(sized_parameters(), *preprocess_);
+      surface_ = std::make_unique<SurfaceSamples>(sample_surface(*preprocess_, options, progress));
+      interior_spacing_mm_ = surface_->voxels.empty()
+                                 ? 0
+                                 : matching_interior_spacing_mm(*preprocess_, *surface_, options);
       break;
+    }
     case Stage::cvt:
       if (!lloyd_) start_lloyd();
       run_lloyd(-1, progress);

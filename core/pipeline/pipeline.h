@@ -30,7 +30,14 @@ namespace cvt {
 // How to read the image (its NIfTI frame), and the options of each stage, from the parameters.
 ReadOptions image_read_options(const Parameters& p);
 PreprocessOptions preprocess_options(const Parameters& p);
-SurfaceSamplingOptions surface_options(const Parameters& p);
+// Stage 2's options need stage 1's result: the automatic lfs cap is its median boundary lfs.
+SurfaceSamplingOptions surface_options(const Parameters& p, const PreprocessResult& pre);
+// The interior spacing that matches surface samples taken with `options`: their
+// area_weighted_spacing_mm, without the cap on their radius (lfs cap, chord tolerance), which
+// adds surface samples only (where capped radii fall below the voxel, every boundary voxel is a
+// sample and the area weights no longer hold, so the samples are drawn again without it).
+double matching_interior_spacing_mm(const PreprocessResult& pre, const SurfaceSamples& samples,
+                                    const SurfaceSamplingOptions& options);
 CvtOptions cvt_options(const Parameters& p, double default_spacing_mm);
 MeshGenerationOptions mesh_options(const Parameters& p);
 FidelityRefinementOptions refinement_options(const Parameters& p);
@@ -105,8 +112,8 @@ class Pipeline {
   // Counts every change of `s`'s result (a run, a Lloyd step, an optimisation pass, a reset),
   // so a viewer can tell a new result without comparing addresses.
   std::uint64_t generation(Stage s) const { return generation_[int(s)]; }
-  // Default interior spacing: area_weighted_spacing_mm of the surface samples.
-  double default_interior_spacing_mm() const;
+  // Default interior spacing: matching_interior_spacing_mm of stage 2's samples (0 before).
+  double default_interior_spacing_mm() const { return interior_spacing_mm_; }
   // The parameters as the stages use them: with --vertices (target_vertices), the r and the
   // interior points it chose, once stages 2 and 3 have resolved them.
   Parameters sized_parameters() const;
@@ -128,6 +135,7 @@ class Pipeline {
   Run run_ = Run::repeatable;
   Parameters parameters_;
   double budget_r_ = 0;               // --vertices: stage 2's r (0: none yet)
+  double interior_spacing_mm_ = 0;    // default_interior_spacing_mm, set by stage 2
   std::int64_t budget_points_ = 0;    // … and stage 3's interior points
   bool done_[kStageCount] = {};
   std::uint64_t generation_[kStageCount] = {};

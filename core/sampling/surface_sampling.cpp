@@ -117,6 +117,16 @@ double area_weighted_spacing_mm(const SurfaceSamples& samples, const Volume<floa
   return c2 > 0 ? c2s / c2 : 0.0;
 }
 
+double median_boundary_lfs_mm(const PreprocessResult& pre) {
+  std::vector<float> lfs;
+  lfs.reserve(pre.boundary.size());
+  for (std::int32_t v : pre.boundary) lfs.push_back(pre.lfs_mm.data[std::size_t(v)]);
+  if (lfs.empty()) return 0;
+  const auto mid = lfs.begin() + std::ptrdiff_t(lfs.size() / 2);
+  std::nth_element(lfs.begin(), mid, lfs.end());
+  return *mid;
+}
+
 SurfaceSamples sample_surface(const PreprocessResult& pre, const SurfaceSamplingOptions& options,
                               const Progress& progress) {
   if (!(options.r > 0 && options.r < 1)) throw InputError("--r: must be in (0, 1)");

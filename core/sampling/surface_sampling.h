@@ -60,6 +60,11 @@ SurfaceSamples sample_surface(const PreprocessResult& pre, const SurfaceSampling
 double area_weighted_spacing_mm(const SurfaceSamples& samples, const Volume<float>& lfs_mm,
                                 const SurfaceSamplingOptions& options);
 
+// The median lfs over the object's boundary voxels (mm; 0 without any): the default cap of
+// surface_lfs_max_mm, so the flatter half of the surface is sampled as finely as the median
+// part, whatever the object's size or the voxel.
+double median_boundary_lfs_mm(const PreprocessResult& pre);
+
 // The radius a sample at a voxel of this lfs covers: r·lfs with lfs capped at
 // surface_lfs_max_mm (when > 0), and at most √(8·δ·lfs) by a chord tolerance δ > 0 (mm).
 inline double sampling_radius_mm(double lfs_mm, const SurfaceSamplingOptions& options) {
