@@ -138,7 +138,6 @@ const TetMesh* Pipeline::final_mesh() const {
   return mesh_ ? &mesh_->mesh : nullptr;
 }
 
-
 Parameters Pipeline::sized_parameters() const {
   Parameters p = parameters_;
   if (budget_r_ > 0) p.r = budget_r_;
