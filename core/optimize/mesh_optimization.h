@@ -16,7 +16,10 @@
 //   3. vertex moves that raise the worst tet of a star: interior vertices freely, boundary
 //      vertices along the sub-voxel surface (0.5 level of the smoothed indicator);
 //   4. where none of that helped (needles on tiny boundary triangles, wedges across thick parts
-//      with no vertex inside), an interior vertex is inserted (cavity + star re-triangulation).
+//      with no vertex inside), an interior vertex is inserted (cavity + star re-triangulation);
+//   5. after the last pass, the boundary is fitted to the surface: its vertices move along the
+//      normal off the level set so that the triangles, not only their corners, follow it
+//      (least squares; no tet turns bad).
 // A change is kept only when the worst tet it makes is better than the worst it replaces (ODT
 // and snapping: no tet turns bad, no bad tet gets worse), so the worst tet never gets worse
 // (once no tet is bad, none turns bad); new tets are positively oriented and fill the region of
@@ -81,7 +84,7 @@ struct OptimizationResult {
   double setup_s = 0;              // … of which setting up (adjacency, qualities, surface)
   double cpu_s = 0;                // … as process CPU time (all threads)
   // Largest distance (mm) from a boundary vertex that may slide to the 0.5 level set, before
-  // and after; boundary vertices off the surface at the start (fixed until snapped onto it)
+  // and after (before the fit, which moves them off it on purpose); boundary vertices off the surface at the start (fixed until snapped onto it)
   // are counted apart.
   double surface_distance_before_mm = 0, surface_distance_after_mm = 0;
   std::size_t sliding_vertices = 0, fixed_boundary_vertices = 0;
@@ -97,6 +100,13 @@ struct OptimizationResult {
                                       // no other tet) removed with that vertex
   std::size_t collapsed_edges = 0;    // short edges collapsed, a vertex removed with each
   std::size_t inserted_vertices = 0;  // interior vertices inserted
+  // The boundary's fit to the surface after the last pass: vertices moved, their mean and
+  // largest offset, the boundary triangles' area-weighted mean distance to the level set
+  // before and after, and its time (included in wall_s and in the last pass's smoothing_s).
+  std::size_t fit_vertices = 0;
+  double fit_mean_offset_mm = 0, fit_max_offset_mm = 0;
+  double fit_error_before_mm = 0, fit_error_after_mm = 0;
+  double fit_s = 0;
   // For each vertex of the optimised mesh, the input vertex it is (−1: inserted). Input
   // vertices keep their order; only removed corners and collapsed vertices leave gaps (an
   // inserted vertex may be collapsed too). (Filled by optimize_mesh;
@@ -153,6 +163,7 @@ class MeshOptimizer {
   OptimizationResult result_;
   std::int32_t input_vertices_ = 0;
   bool finished_ = false;
+  bool fitted_ = false;  // the fit ran: surface_distance_after_mm was measured before it
 };
 
 // Optimises `mesh` in place.
@@ -163,7 +174,8 @@ OptimizationResult optimize_mesh(TetMesh& mesh, const Volume<float>* indicator,
 // {"wall_s","setup_s","cpu_s","surface_distance_before_mm","surface_distance_after_mm",
 //  "sliding_vertices","fixed_boundary_vertices","fixed_boundary_distance_mm",
 //  "snapped_vertices","max_boundary_shift_mm","max_flip_face_distance_mm","boundary_flips",
-//  "corner_removals","collapsed_edges","inserted_vertices",
+//  "corner_removals","collapsed_edges","inserted_vertices","fit_vertices","fit_mean_offset_mm",
+//  "fit_max_offset_mm","fit_error_before_mm","fit_error_after_mm","fit_s",
 //  "passes":[{"pass","wall_s","cpu_s","flips_s","odt_s","smoothing_s","insertion_s","tets",
 //  "vertices","min_quality","edge_removals","face_flips","boundary_flips","corner_removals",
 //  "collapsed_edges","odt_moved","moved_interior","moved_surface","snapped_surface","inserted",

@@ -349,19 +349,18 @@ Move optimise_vertex(const WorkMesh& m, std::int32_t v, const LevelSetSurface* s
   return {x, moved};
 }
 
-// Boundary vertex v, off the level set, moved onto it, or as far towards it as its star allows:
-// the first of all, half and a quarter of the way that keeps the star embedded and makes no tet
-// bad (nor a bad one worse).
-Move snap_vertex(const WorkMesh& m, std::int32_t v, const LevelSetSurface& surface,
-                 double bad_below, double* star_quality) {
+}  // namespace
+
+Move move_boundary_vertex(const WorkMesh& m, std::int32_t v, const Vec3& target,
+                          double bad_below, bool each_tet, double* star_quality) {
   const std::vector<std::int32_t>& star = m.vertex_tets[v];
   const std::size_t n = star.size();
   double qmin = std::numeric_limits<double>::infinity();
   for (std::int32_t t : star) qmin = std::min(qmin, m.quality[t]);
-  const double floor = std::max(std::min(qmin, bad_below), kMinValidQuality);
+  auto floor = [&](std::size_t i) {
+    return std::max(std::min(each_tet ? m.quality[star[i]] : qmin, bad_below), kMinValidQuality);
+  };
   const Vec3 x = m.pos[v];
-  Vec3 target = x;
-  if (!surface.project(target, 20.0 * surface.min_spacing_mm())) return {x, false};
   BoundaryStar boundary(m, v, shortest_star_edge(m, v));
   const bool monotone = boundary.projects_one_to_one(x);
   std::vector<double> trial(n);
@@ -372,7 +371,7 @@ Move snap_vertex(const WorkMesh& m, std::int32_t v, const LevelSetSurface& surfa
     bool good = true;
     for (std::size_t i = 0; i < n && good; ++i) {
       trial[i] = quality_at(m, star[i], v, y);
-      good = trial[i] >= floor;
+      good = trial[i] >= floor(i);
     }
     if (!good || !(monotone || boundary.unfolded(y)) || !boundary.stays_embedded(y)) continue;
     std::copy(trial.begin(), trial.end(), star_quality);
@@ -380,8 +379,6 @@ Move snap_vertex(const WorkMesh& m, std::int32_t v, const LevelSetSurface& surfa
   }
   return {x, false};
 }
-
-}  // namespace
 
 PassCounts smooth_vertices(WorkMesh& m, const LevelSetSurface* surface, const SmoothingOptions& o) {
   PassCounts counts;
@@ -414,7 +411,9 @@ PassCounts snap_to_surface(WorkMesh& m, const LevelSetSurface& surface, double t
                    m.vertex_stamp[v] > m.move_failed[v];
   const auto moved = move_in_classes(
       m, colour_classes(m, candidate, true), true, [&](std::int32_t v, double* q) {
-        return snap_vertex(m, v, surface, bad_below, q);
+        Vec3 target = m.pos[v];
+        if (!surface.project(target, 20.0 * surface.min_spacing_mm())) return Move{m.pos[v]};
+        return move_boundary_vertex(m, v, target, bad_below, false, q);
       });
   for (std::int32_t v : moved)
     if (surface.distance(m.pos[v]) <= tolerance_mm) {

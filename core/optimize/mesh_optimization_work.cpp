@@ -278,6 +278,19 @@ double LevelSetSurface::min_spacing_mm() const {
   return std::min({s.x, s.y, s.z});
 }
 
+double LevelSetSurface::max_spacing_mm() const {
+  const Vec3& s = field_->grid.spacing;
+  return std::max({s.x, s.y, s.z});
+}
+
+double LevelSetSurface::signed_distance(const Vec3& world, double limit_mm) const {
+  const Vec3 index = field_->grid.world_to_index(world);
+  const double f = double(sample_trilinear(*field_, index)) - level_;
+  const double g = norm(world_gradient(*field_, index));
+  if (!(g > 1e-12)) return f > 0 ? -limit_mm : limit_mm;
+  return std::clamp(-f / g, -limit_mm, limit_mm);
+}
+
 bool LevelSetSurface::project(Vec3& world, double max_move_mm) const {
   const Grid& g = field_->grid;
   Vec3 index = g.world_to_index(world);

@@ -141,7 +141,11 @@ class LevelSetSurface {
   // Distance (mm) from `world` to the level set: |f − level| / |∇f| near it, else the length
   // of its projection; capped at 20 × the smallest voxel spacing (where the field is flat).
   double distance(const Vec3& world) const;
+  // Signed distance (mm; outside positive) to first order, (level − f) / |∇f|: accurate within
+  // about a voxel of the level set; clamped to ±limit_mm.
+  double signed_distance(const Vec3& world, double limit_mm) const;
   double min_spacing_mm() const;
+  double max_spacing_mm() const;
 
  private:
   const Volume<float>* field_;
@@ -179,6 +183,12 @@ std::vector<std::int32_t> move_in_classes(WorkMesh& mesh,
                                           const std::vector<std::vector<std::int32_t>>& classes,
                                           bool mark_failures,
                                           const std::function<Move(std::int32_t, double*)>& move);
+
+// Boundary vertex v moved towards `target`: all, half or a quarter of the way, the first that
+// keeps its star embedded and brings no tet below bad_below; below it, no tet below the star's
+// worst (or, with each_tet, no tet worse than it was). Not moved when none does.
+Move move_boundary_vertex(const WorkMesh& mesh, std::int32_t v, const Vec3& target,
+                          double bad_below, bool each_tet, double* star_quality);
 
 // What one topological or smoothing pass did.
 struct PassCounts {
@@ -260,6 +270,25 @@ PassCounts smooth_vertices(WorkMesh& mesh, const LevelSetSurface* surface,
 // slides from then on. Colour classes in parallel: deterministic whatever the thread count.
 PassCounts snap_to_surface(WorkMesh& mesh, const LevelSetSurface& surface, double tolerance_mm,
                            double bad_below);
+
+struct SurfaceFitOptions {
+  int iterations = 3;      // Gauss–Newton steps
+  double max_step_mm = 0;  // a vertex moves at most this far along the normal per step
+  double bad_below = 1;    // no tet is brought below this, none below it made worse
+};
+struct SurfaceFit {
+  std::size_t vertices = 0;               // boundary vertices that moved
+  double mean_offset_mm = 0;              // their mean and largest distance from where they were
+  double max_offset_mm = 0;
+  double mean_error_before_mm = 0;        // area-weighted mean |signed distance| of the
+  double mean_error_after_mm = 0;         // boundary triangles to the level set
+};
+
+// Fits the boundary triangles to the level set in the least-squares sense by moving the
+// on_surface vertices along the surface normal (see mesh_optimization_fit.cpp). Colour classes
+// in parallel: deterministic whatever the thread count.
+SurfaceFit fit_to_surface(WorkMesh& mesh, const LevelSetSurface& surface,
+                          const SurfaceFitOptions& options);
 
 // Lawson flips (2-3, 3-2) towards a Delaunay mesh, from the tets in `seeds`: a face whose
 // opposite vertex lies inside the circumsphere is flipped when no new tet is bad, nor worse than

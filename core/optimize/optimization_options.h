@@ -23,6 +23,7 @@ struct OptimizationOptions {
   double global_flip_below = 1.5;         // … those of quality below this
   bool odt_flips = false;                 // Delaunay flips after each ODT sweep
   double surface_tolerance_voxels = 0.05;  // boundary vertices farther off stay fixed
+  bool fit_surface = true;  // last: boundary fitted to the surface (least squares, not chords)
 
   bool operator==(const OptimizationOptions&) const = default;
 };

@@ -247,6 +247,12 @@ std::vector<ParameterSpec> make_registry() {
        .tooltip = "Boundary vertices farther than this from the surface are not surface samples "
                   "and stay fixed (smallest voxel spacings).",
        .lo = 0, .hi = 2, .ref = opt<&O::surface_tolerance_voxels>, .active = optimizing},
+      {.key = "fit_surface", .section = kOpt, .cli = "opt-fit-surface",
+       .label = "fit boundary to surface", .stage = S::optimize,
+       .tooltip = "Last: move boundary vertices along the normal so the boundary triangles fit "
+                  "the sub-voxel surface in the least-squares sense (they no longer cut its "
+                  "chords), as far as no tet turns bad.",
+       .ref = opt<&O::fit_surface>, .active = optimizing},
       // No stage: how the run is carried out.
       {.key = "threads", .cli = "threads", .label = "threads",
        .tooltip = "Worker threads. Results do not depend on it.", .lo = 0, .hi = 1024,
