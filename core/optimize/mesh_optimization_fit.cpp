@@ -135,7 +135,8 @@ SurfaceFit fit_to_surface(WorkMesh& m, const LevelSetSurface& surface,
     });
     const auto moved =
         move_in_classes(m, classes, false, [&](std::int32_t v, double* q) {
-          if (squared_distance(target[v], m.pos[v]) < 1e-18) return Move{m.pos[v]};
+          if (!(squared_distance(target[v], m.pos[v]) > o.min_step_mm * o.min_step_mm))
+            return Move{m.pos[v]};
           return move_boundary_vertex(m, v, target[v], o.bad_below, true, q);
         });
     terms = face_terms(m, faces, surface, limit);

@@ -273,7 +273,8 @@ PassCounts snap_to_surface(WorkMesh& mesh, const LevelSetSurface& surface, doubl
 
 struct SurfaceFitOptions {
   int iterations = 3;      // Gauss–Newton steps
-  double max_step_mm = 0;  // a vertex moves at most this far along the normal per step
+  double max_step_mm = 0;  // a vertex moves at most this far along the normal per step, and
+  double min_step_mm = 0;  // not at all when less than this (its star is checked at a cost)
   double bad_below = 1;    // no tet is brought below this, none below it made worse
 };
 struct SurfaceFit {
