@@ -304,11 +304,11 @@ TEST(MeshOptimization, FitToSurfaceBringsTheTrianglesOntoTheSphere) {
   const double sphere_volume = 4.0 / 3.0 * kPi * radius * radius * radius;
   const QualityReport qp = compute_quality(plain), qf = compute_quality(fitted);
   EXPECT_LT(std::abs(qf.volume_mm3 - sphere_volume), std::abs(qp.volume_mm3 - sphere_volume));
-  // The fit's own figures, and what it must not do: change the topology, the vertex count, or
-  // bring a tet below 20° that was not (the rest of stage 6 ran exactly as without it).
+  // The fit's own figures, and what it must not do: change the topology or the vertex count,
+  // lower the worst tet, or make a tet bad (the rest of stage 6 ran exactly as without it).
   EXPECT_GT(rf.fit_vertices, plain.vertices.size() / 5);
   EXPECT_LT(rf.fit_error_after_mm, 0.75 * rf.fit_error_before_mm);
-  EXPECT_LE(rf.fit_max_offset_mm, 3 * 0.25 + 1e-9);  // three steps of half the smallest spacing
+  EXPECT_LE(rf.fit_max_offset_mm, 2 * 0.25 + 1e-9);  // two steps of half the smallest spacing
   EXPECT_EQ(rp.fit_vertices, 0u);
   EXPECT_EQ(rf.surface_distance_after_mm, rp.surface_distance_after_mm);
   EXPECT_EQ(fitted.tets, plain.tets);
@@ -316,9 +316,10 @@ TEST(MeshOptimization, FitToSurfaceBringsTheTrianglesOntoTheSphere) {
   EXPECT_TRUE(qf.validity.boundary.closed_manifold);
   EXPECT_EQ(qf.validity.boundary.euler_characteristic, 2);
   EXPECT_EQ(vertices_inside_foreign_tets(fitted), 0u);
-  EXPECT_GE(qf.dihedral.min_deg, std::min(qp.dihedral.min_deg, 20.0) - 1e-9);
+  EXPECT_GE(rf.history.back().min_quality, rp.history.back().min_quality);
+  if (qp.dihedral.min_deg >= 15) EXPECT_GE(qf.dihedral.min_deg, 15.0);
   EXPECT_LE(qf.dihedral.max_deg, std::max(qp.dihedral.max_deg, 160.0) + 1e-9);
-  EXPECT_LE(qf.dihedral.below_20, qp.dihedral.below_20);
+  for (int k = 0; k < 3; ++k) EXPECT_EQ(qf.shewchuk[k].bins_percent[0], 0.0) << k;
 }
 
 TEST(MeshOptimization, Torus) {

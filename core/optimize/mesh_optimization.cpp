@@ -193,9 +193,9 @@ bool MeshOptimizer::step(const Progress& progress) {
     result_.fit_s = timed([&] {
       opt::SurfaceFitOptions f;
       f.max_step_mm = 0.5 * surface_->min_spacing_mm();
-      f.min_step_mm = 0.03 * surface_->min_spacing_mm();
+      f.min_step_mm = 0.01 * surface_->min_spacing_mm();
       // The fit trades a little quality for fidelity, but not near the bad edge: no tet is
-      // brought below a 20° dihedral angle's worth, none below it made worse.
+      // brought below a 20° dihedral angle's worth, nor below its star's worst.
       f.bad_below = std::max(bad_below, std::sin(20.0 * kPi / 180.0) / m.scale.sine);
       fit = opt::fit_to_surface(m, *surface_, f);
     });

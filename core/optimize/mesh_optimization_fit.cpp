@@ -8,7 +8,7 @@
 // Gauss–Newton with a lumped mass matrix: with e the signed distance sampled on each triangle
 // and φ_v the hat function of vertex v, each step moves v by Σ w φ_v e / Σ w φ_v (w the
 // samples' areas), at most max_step_mm, and only as far as its star stays embedded and no tet
-// drops below bad_below or, when below it already, gets worse (move_boundary_vertex).
+// drops below bad_below, nor below its star's worst (move_boundary_vertex).
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -137,7 +137,7 @@ SurfaceFit fit_to_surface(WorkMesh& m, const LevelSetSurface& surface,
         move_in_classes(m, classes, false, [&](std::int32_t v, double* q) {
           if (!(squared_distance(target[v], m.pos[v]) > o.min_step_mm * o.min_step_mm))
             return Move{m.pos[v]};
-          return move_boundary_vertex(m, v, target[v], o.bad_below, true, q);
+          return move_boundary_vertex(m, v, target[v], o.bad_below, q);
         });
     terms = face_terms(m, faces, surface, limit);
     if (moved.empty()) break;

@@ -352,14 +352,12 @@ Move optimise_vertex(const WorkMesh& m, std::int32_t v, const LevelSetSurface* s
 }  // namespace
 
 Move move_boundary_vertex(const WorkMesh& m, std::int32_t v, const Vec3& target,
-                          double bad_below, bool each_tet, double* star_quality) {
+                          double bad_below, double* star_quality) {
   const std::vector<std::int32_t>& star = m.vertex_tets[v];
   const std::size_t n = star.size();
   double qmin = std::numeric_limits<double>::infinity();
   for (std::int32_t t : star) qmin = std::min(qmin, m.quality[t]);
-  auto floor = [&](std::size_t i) {
-    return std::max(std::min(each_tet ? m.quality[star[i]] : qmin, bad_below), kMinValidQuality);
-  };
+  const double floor = std::max(std::min(qmin, bad_below), kMinValidQuality);
   const Vec3 x = m.pos[v];
   BoundaryStar boundary(m, v, shortest_star_edge(m, v));
   const bool monotone = boundary.projects_one_to_one(x);
@@ -371,7 +369,7 @@ Move move_boundary_vertex(const WorkMesh& m, std::int32_t v, const Vec3& target,
     bool good = true;
     for (std::size_t i = 0; i < n && good; ++i) {
       trial[i] = quality_at(m, star[i], v, y);
-      good = trial[i] >= floor(i);
+      good = trial[i] >= floor;
     }
     if (!good || !(monotone || boundary.unfolded(y)) || !boundary.stays_embedded(y)) continue;
     std::copy(trial.begin(), trial.end(), star_quality);
@@ -413,7 +411,7 @@ PassCounts snap_to_surface(WorkMesh& m, const LevelSetSurface& surface, double t
       m, colour_classes(m, candidate, true), true, [&](std::int32_t v, double* q) {
         Vec3 target = m.pos[v];
         if (!surface.project(target, 20.0 * surface.min_spacing_mm())) return Move{m.pos[v]};
-        return move_boundary_vertex(m, v, target, bad_below, false, q);
+        return move_boundary_vertex(m, v, target, bad_below, q);
       });
   for (std::int32_t v : moved)
     if (surface.distance(m.pos[v]) <= tolerance_mm) {

@@ -185,10 +185,10 @@ std::vector<std::int32_t> move_in_classes(WorkMesh& mesh,
                                           const std::function<Move(std::int32_t, double*)>& move);
 
 // Boundary vertex v moved towards `target`: all, half or a quarter of the way, the first that
-// keeps its star embedded and brings no tet below bad_below; below it, no tet below the star's
-// worst (or, with each_tet, no tet worse than it was). Not moved when none does.
+// keeps its star embedded and brings no tet below bad_below, nor below the star's worst when
+// that is lower. Not moved when none does.
 Move move_boundary_vertex(const WorkMesh& mesh, std::int32_t v, const Vec3& target,
-                          double bad_below, bool each_tet, double* star_quality);
+                          double bad_below, double* star_quality);
 
 // What one topological or smoothing pass did.
 struct PassCounts {
@@ -272,10 +272,10 @@ PassCounts snap_to_surface(WorkMesh& mesh, const LevelSetSurface& surface, doubl
                            double bad_below);
 
 struct SurfaceFitOptions {
-  int iterations = 3;      // Gauss–Newton steps
+  int iterations = 2;      // Gauss–Newton steps
   double max_step_mm = 0;  // a vertex moves at most this far along the normal per step, and
   double min_step_mm = 0;  // not at all when less than this (its star is checked at a cost)
-  double bad_below = 1;    // no tet is brought below this, none below it made worse
+  double bad_below = 1;    // no tet is brought below this (nor below its star's worst)
 };
 struct SurfaceFit {
   std::size_t vertices = 0;               // boundary vertices that moved
