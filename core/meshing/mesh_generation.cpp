@@ -371,9 +371,10 @@ struct DelaunayMesher::State {
     for (const Vec3& p : at) {
       const double o = occupancy(p);
       out.push_back({p,
-                     o >= options.inside_from          ? PoleKind::interior
-                     : o < options.pole_outside_below ? PoleKind::exterior
-                                                        : PoleKind::near_surface,
+                     o >= options.inside_from ? PoleKind::interior
+                     : o < std::max(options.pole_outside_below, options.slit_pole_below)
+                         ? PoleKind::exterior
+                         : PoleKind::near_surface,
                      {}});
     }
     return out;
@@ -385,6 +386,82 @@ struct DelaunayMesher::State {
     std::vector<Vec3> at;
     poles_of(samples_dt, v, frame, cells, at);
     return classify(at);
+  }
+
+  // Slit poles (occupancy ≥ pole_outside_below) whose removed cells make a void: the removed
+  // cells (poles' and centroid-removed) around them reach neither the hull nor a pole below
+  // pole_outside_below. A flood from each slit pole over removed cells; a flood that meets
+  // the outside marks what it crossed, so later floods stop there.
+  std::vector<Delaunay::Vertex_handle> enclosed_slit_poles() const {
+    std::vector<Delaunay::Vertex_handle> slit;
+    std::unordered_map<const void*, bool> is_slit;  // every pole vertex of dt
+    for (auto v = dt.finite_vertices_begin(); v != dt.finite_vertices_end(); ++v) {
+      if (v->info() >= 0) continue;
+      const bool weak = occupancy(to_vec(v->point())) >= options.pole_outside_below;
+      is_slit[&*v] = weak;
+      if (weak) slit.push_back(v);
+    }
+    std::vector<Delaunay::Vertex_handle> out;
+    if (slit.empty()) return out;
+    std::unordered_map<const void*, bool> open;  // flooded cells: whether they reach outside
+    std::vector<Delaunay::Cell_handle> region, queue, around;
+    for (const Delaunay::Vertex_handle v : slit) {
+      around.clear();
+      dt.incident_cells(v, std::back_inserter(around));
+      if (open.count(&*around.front())) continue;  // an earlier flood crossed this pole
+      region.clear();
+      bool reaches_outside = false;
+      for (const Delaunay::Cell_handle c : around) {
+        const auto seen = open.emplace(&*c, false);
+        if (seen.second) queue.push_back(c);
+        else if (seen.first->second) reaches_outside = true;
+      }
+      while (!queue.empty() && !reaches_outside) {
+        const Delaunay::Cell_handle c = queue.back();
+        queue.pop_back();
+        region.push_back(c);
+        if (dt.is_infinite(c)) { reaches_outside = true; break; }
+        for (int k = 0; k < 4 && !reaches_outside; ++k) {
+          const Delaunay::Vertex_handle w = c->vertex(k);
+          if (w->info() < 0 && !is_slit.at(&*w)) reaches_outside = true;
+        }
+        for (int k = 0; k < 4 && !reaches_outside; ++k) {
+          const Delaunay::Cell_handle n = c->neighbor(k);
+          if (!dt.is_infinite(n) && n->info().fate == kept_cell) continue;
+          const auto seen = open.emplace(&*n, false);
+          if (seen.second) queue.push_back(n);
+          else if (seen.first->second) reaches_outside = true;
+        }
+      }
+      queue.clear();
+      if (reaches_outside) {
+        for (const Delaunay::Cell_handle c : region) open[&*c] = true;
+        for (const Delaunay::Cell_handle c : around) open[&*c] = true;
+        continue;
+      }
+      for (const Delaunay::Cell_handle c : region)
+        for (int k = 0; k < 4; ++k)
+          if (!dt.is_infinite(c->vertex(k)) && c->vertex(k)->info() < 0) out.push_back(c->vertex(k));
+    }
+    std::sort(out.begin(), out.end(), [](auto a, auto b) { return a->point() < b->point(); });
+    out.erase(std::unique(out.begin(), out.end()), out.end());
+    return out;
+  }
+
+  // Takes the poles out of dt; their samples keep them as near-surface poles.
+  void remove_poles(const std::vector<Delaunay::Vertex_handle>& gone) {
+    std::unordered_map<const void*, bool> is_gone;
+    for (const Delaunay::Vertex_handle v : gone) is_gone[&*v] = true;
+    for (auto& sample : poles)
+      for (Pole& pole : sample)
+        if (pole.vertex != Delaunay::Vertex_handle() && is_gone.count(&*pole.vertex)) {
+          pole.vertex = Delaunay::Vertex_handle();
+          pole.kind = PoleKind::near_surface;
+        }
+    for (const Delaunay::Vertex_handle v : gone) {
+      pole_uses.erase(&*v);
+      dt.remove(v);
+    }
   }
 
   // An exterior pole joins dt (or counts one more use of the vertex already there).
@@ -556,12 +633,6 @@ MeshGenerationResult DelaunayMesher::mesh() {
   Delaunay& dt = s.dt;
   const int nb = int(s.surface.size()), ni = int(s.interior.size());
   MeshGenerationResult out;
-  for (const auto& sample : s.poles)
-    for (const State::Pole& pole : sample) {
-      if (pole.kind == State::PoleKind::exterior) out.exterior_poles.push_back(pole.at);
-      if (pole.kind == State::PoleKind::interior) out.interior_poles.push_back(pole.at);
-      if (pole.kind == State::PoleKind::near_surface) ++out.near_surface_poles;
-    }
 
   // Rules 1 and 2 select the tets; where the result pinches (the boundary is not a disc around
   // a sample), that sample is deleted from the triangulation and the selection redone.
@@ -601,6 +672,16 @@ MeshGenerationResult DelaunayMesher::mesh() {
         outside.push_back(c);
       }
     restore_enclosed(dt, outside);
+    {
+      // Pinch removal can close a slit's mouth, so every pass looks for voids.
+      const std::vector<Delaunay::Vertex_handle> enclosed = s.enclosed_slit_poles();
+      if (!enclosed.empty()) {
+        out.enclosed_slit_poles += enclosed.size();
+        s.remove_poles(enclosed);
+        if (pass == 0) pass = -1;  // pass 0 again: it tests every vertex for pinches
+        continue;
+      }
+    }
     out.repair.flat_removed = 0;
     if (!options.repair_manifold || pass >= options.max_pinch_passes) break;
     // The boundary straight from the cells' adjacency (no tet list to sort each pass); the
@@ -647,6 +728,13 @@ MeshGenerationResult DelaunayMesher::mesh() {
       out.pinched_samples.push_back(v < nb ? s.surface[v] : s.interior[v - nb]);
     }
   }
+  // (After the passes: slit poles that carved a void are near-surface ones now.)
+  for (const auto& sample : s.poles)
+    for (const State::Pole& pole : sample) {
+      if (pole.kind == State::PoleKind::exterior) out.exterior_poles.push_back(pole.at);
+      if (pole.kind == State::PoleKind::interior) out.interior_poles.push_back(pole.at);
+      if (pole.kind == State::PoleKind::near_surface) ++out.near_surface_poles;
+    }
   // Without pinches every boundary link is one cycle, so every boundary edge has two faces:
   // peeling (rule 3's fallback) could only remove flat tets on the boundary, and those went
   // in the last pass. So it is skipped, and rule 4's groups come from the cells' adjacency,
