@@ -46,6 +46,9 @@ using Delaunay = CGAL::Delaunay_triangulation_3<Kernel, DataStructure>;
 using Point = Kernel::Point_3;
 
 enum CellFate : int { kept_cell, pole_cell, outside_cell, flat_cell };
+// dt's vertex info for an exterior pole: below pole_outside_below, or a slit pole (see
+// MeshGenerationOptions::pole_outside_below).
+constexpr int kPole = -1, kSlitPole = -2;
 
 Point to_point(const Vec3& v) { return {v.x, v.y, v.z}; }
 Vec3 to_vec(const Point& p) { return {p.x(), p.y(), p.z()}; }
@@ -347,10 +350,12 @@ void poles_of(const Delaunay& dt, Delaunay::Vertex_handle v, const PoleFrame& fr
 // What stage 5 keeps between rounds: Delaunay(B) for the poles, each sample's poles, and
 // Delaunay(B ∪ I ∪ EP) with the cells' cached rule results.
 struct DelaunayMesher::State {
+  // near_surface: a slit pole taken out again because it carved a void.
   enum class PoleKind : unsigned char { interior, exterior, near_surface };
   struct Pole {
     Vec3 at;
     PoleKind kind;
+    bool slit;                       // exterior with occupancy ≥ pole_outside_below
     Delaunay::Vertex_handle vertex;  // an exterior pole's vertex of dt (null if it is a sample)
   };
 
@@ -361,7 +366,7 @@ struct DelaunayMesher::State {
   Delaunay samples_dt;                  // Delaunay(B); vertex info: index in B
   PoleFrame frame;
   std::vector<std::vector<Pole>> poles;  // per sample of B
-  Delaunay dt;                           // vertex info: index in B ∪ I, or −1 for a pole
+  Delaunay dt;                           // vertex info: index in B ∪ I, or kPole / kSlitPole
   std::vector<Delaunay::Vertex_handle> handle;  // per sample of B ∪ I; null once deleted
   std::unordered_map<const void*, int> pole_uses;  // samples whose exterior pole a vertex is
   std::vector<int> pinched;  // samples rule 3 deleted since the last refine (index in B ∪ I)
@@ -370,12 +375,8 @@ struct DelaunayMesher::State {
     std::vector<Pole> out;
     for (const Vec3& p : at) {
       const double o = occupancy(p);
-      out.push_back({p,
-                     o >= options.inside_from ? PoleKind::interior
-                     : o < std::max(options.pole_outside_below, options.slit_pole_below)
-                         ? PoleKind::exterior
-                         : PoleKind::near_surface,
-                     {}});
+      out.push_back({p, o >= options.inside_from ? PoleKind::interior : PoleKind::exterior,
+                     o >= options.pole_outside_below, {}});
     }
     return out;
   }
@@ -394,13 +395,8 @@ struct DelaunayMesher::State {
   // the outside marks what it crossed, so later floods stop there.
   std::vector<Delaunay::Vertex_handle> enclosed_slit_poles() const {
     std::vector<Delaunay::Vertex_handle> slit;
-    std::unordered_map<const void*, bool> is_slit;  // every pole vertex of dt
-    for (auto v = dt.finite_vertices_begin(); v != dt.finite_vertices_end(); ++v) {
-      if (v->info() >= 0) continue;
-      const bool weak = occupancy(to_vec(v->point())) >= options.pole_outside_below;
-      is_slit[&*v] = weak;
-      if (weak) slit.push_back(v);
-    }
+    for (auto v = dt.finite_vertices_begin(); v != dt.finite_vertices_end(); ++v)
+      if (v->info() == kSlitPole) slit.push_back(v);
     std::vector<Delaunay::Vertex_handle> out;
     if (slit.empty()) return out;
     std::unordered_map<const void*, bool> open;  // flooded cells: whether they reach outside
@@ -423,7 +419,7 @@ struct DelaunayMesher::State {
         if (dt.is_infinite(c)) { reaches_outside = true; break; }
         for (int k = 0; k < 4 && !reaches_outside; ++k) {
           const Delaunay::Vertex_handle w = c->vertex(k);
-          if (w->info() < 0 && !is_slit.at(&*w)) reaches_outside = true;
+          if (w->info() == kPole) reaches_outside = true;
         }
         for (int k = 0; k < 4 && !reaches_outside; ++k) {
           const Delaunay::Cell_handle n = c->neighbor(k);
@@ -441,7 +437,7 @@ struct DelaunayMesher::State {
       }
       for (const Delaunay::Cell_handle c : region)
         for (int k = 0; k < 4; ++k)
-          if (!dt.is_infinite(c->vertex(k)) && c->vertex(k)->info() < 0) out.push_back(c->vertex(k));
+          if (c->vertex(k)->info() == kSlitPole) out.push_back(c->vertex(k));
     }
     std::sort(out.begin(), out.end(), [](auto a, auto b) { return a->point() < b->point(); });
     out.erase(std::unique(out.begin(), out.end()), out.end());
@@ -468,7 +464,7 @@ struct DelaunayMesher::State {
   void insert_pole(Pole& pole) {
     const std::size_t before = dt.number_of_vertices();
     const Delaunay::Vertex_handle v = dt.insert(to_point(pole.at));
-    if (dt.number_of_vertices() > before) v->info() = -1;
+    if (dt.number_of_vertices() > before) v->info() = pole.slit ? kSlitPole : kPole;
     if (v->info() >= 0) return;  // the point is a sample's: nothing to remove later
     pole.vertex = v;
     ++pole_uses[&*v];
@@ -528,7 +524,7 @@ DelaunayMesher::DelaunayMesher(const std::vector<Vec3>& surface,
     for (State::Pole& pole : sample)
       if (pole.kind == State::PoleKind::exterior) {
         exterior.push_back(&pole);
-        pts.push_back({to_point(pole.at), -1});  // −1 marks a pole
+        pts.push_back({to_point(pole.at), pole.slit ? kSlitPole : kPole});
       }
   insert_points(s.dt, pts, progress, &handles);
   progress.check_cancelled();
@@ -673,10 +669,10 @@ MeshGenerationResult DelaunayMesher::mesh() {
       }
     restore_enclosed(dt, outside);
     {
-      // Pinch removal can close a slit's mouth, so every pass looks for voids.
+      // Pinch removal can close a slit's mouth, so every pass looks for voids. A later pass
+      // that goes on here leaves its cells unsettled: the next one retests more, not less.
       const std::vector<Delaunay::Vertex_handle> enclosed = s.enclosed_slit_poles();
       if (!enclosed.empty()) {
-        out.enclosed_slit_poles += enclosed.size();
         s.remove_poles(enclosed);
         if (pass == 0) pass = -1;  // pass 0 again: it tests every vertex for pinches
         continue;

@@ -24,15 +24,12 @@ namespace cvt {
 using OccupancyFunction = std::function<double(const Vec3& world)>;
 
 struct MeshGenerationOptions {
-  // A pole is exterior (EP) where occupancy < this. Poles hugging the surface (up to 0.5) would
-  // carve tets deep inside the object, so they are left out. Chosen on the liver.
+  // Every pole below inside_from is exterior (EP) and carves. Poles hugging the surface (up to
+  // 0.5) can carve tets deep inside the object, so those at or above this ("slit poles": in a
+  // slit narrower than the smoothing the indicator never drops below it) are taken out again
+  // where their carving leaves a void, removed cells that reach neither the hull nor a pole
+  // below this: such a void is not a cavity of the object. Chosen on the liver.
   double pole_outside_below = 0.15;
-  // In a slit narrower than the smoothing the indicator stays above pole_outside_below, so the
-  // slit's poles would be left out and the mesh would bridge it. Poles below this are inserted
-  // too ("slit poles"); where their carving makes a void (removed cells that reach neither the
-  // hull nor a pole below pole_outside_below), they are taken out again, as such a void is
-  // not a cavity of the object. Equal to pole_outside_below: no slit poles.
-  double slit_pole_below = 0.3;
   // Rule 2: a tet stays where its centroid's occupancy ≥ this (and poles there are interior).
   // Below 0.5 because removing a big tet that merely straddles a notch exposes faces deep
   // inside; 0.3 gave the smallest Hausdorff distance on the liver (0.5: 6.2 mm, 0.3: 4.7 mm).
@@ -63,8 +60,7 @@ struct MeshGenerationResult {
   TetMesh mesh;                           // vertices: used samples of B then I (world, mm)
   std::vector<Vec3> exterior_poles;       // EP (world, mm)
   std::vector<Vec3> interior_poles;       // poles found inside the object (not inserted)
-  std::size_t near_surface_poles = 0;     // outside, but too close to the surface to insert
-  std::size_t enclosed_slit_poles = 0;    // slit poles taken out again: they carved a void
+  std::size_t near_surface_poles = 0;     // slit poles taken out again (they carved a void)
   std::vector<std::array<Vec3, 4>> removed_outside;  // tets removed by rule 2, for the viewer
   std::size_t delaunay_tets = 0;          // finite tets of Delaunay(B ∪ EP ∪ I)
   std::size_t removed_by_poles = 0;       // rule 1: incident to a pole

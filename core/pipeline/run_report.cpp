@@ -98,7 +98,6 @@ nlohmann::json run_report(const Pipeline& pipe) {
     counts["exterior_poles"] = m->exterior_poles.size();
     counts["interior_poles"] = m->interior_poles.size();
     counts["near_surface_poles"] = m->near_surface_poles;
-    counts["enclosed_slit_poles"] = m->enclosed_slit_poles;
     counts["vertices"] = pipe.final_mesh()->vertices.size();
     counts["tets"] = pipe.final_mesh()->tets.size();
     counts["delaunay_tets"] = m->delaunay_tets;
