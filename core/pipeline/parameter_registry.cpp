@@ -76,7 +76,8 @@ std::vector<ParameterSpec> make_registry() {
       {.key = "medial_min_separation_mm", .cli = "medial-separation", .label = "medial λ",
        .unit = "mm", .stage = S::preprocess,
        .tooltip = "Medial axis: least distance between the two nearest boundary points (mm); "
-                  "auto: 3 × the largest spacing.",
+                  "auto: 3 sizing units (the larger of the largest spacing and the object's volume "
+                  "over 9 × its surface area, so a finer scan of the same anatomy keeps it).",
        .lo = 0, .zero_means = "auto", .ref = top<&P::medial_min_separation_mm>},
       {.key = "medial_min_angle_deg", .cli = "medial-angle", .label = "medial θ", .unit = "°",
        .stage = S::preprocess,
@@ -89,7 +90,8 @@ std::vector<ParameterSpec> make_registry() {
        .zero_means = "auto", .ref = top<&P::lfs_min_mm>},
       {.key = "lfs_max_mm", .cli = "lfs-max", .label = "lfs max", .unit = "mm",
        .stage = S::preprocess,
-       .tooltip = "Upper clamp of the local feature size (mm); auto: 10 × the largest spacing.",
+       .tooltip = "Upper clamp of the local feature size (mm); auto: 10 sizing units (see "
+                  "medial λ).",
        .lo = 0, .zero_means = "auto", .ref = top<&P::lfs_max_mm>},
       // Stage 2.
       {.key = "r", .cli = "r", .label = "r", .stage = S::surface,

@@ -60,6 +60,8 @@ nlohmann::json run_report(const Pipeline& pipe) {
                        {"crop_dims", pre->object.grid.dims},
                        {"boundary_voxels", pre->boundary.size()},
                        {"smoothing_sigma_mm", pre->smoothing_sigma_mm},
+                       {"volume_to_area_mm", pre->volume_to_area_mm},
+                       {"sizing_unit_mm", pre->sizing_unit_mm},
                        {"medial_min_separation_mm", pre->medial_min_separation_mm},
                        {"lfs_min_mm", pre->lfs_bounds.min_mm},
                        {"lfs_max_mm", pre->lfs_bounds.max_mm},

@@ -9,11 +9,10 @@
 
 namespace cvt {
 
-LfsBounds effective_lfs_bounds(const LfsOptions& options, const Mask& object) {
-  const Grid& g = object.grid;
+LfsBounds effective_lfs_bounds(const LfsOptions& options, const Grid& g, double sizing_unit_mm) {
   LfsBounds b{options.min_mm, options.max_mm};
   if (b.min_mm <= 0) b.min_mm = std::max({g.spacing.x, g.spacing.y, g.spacing.z});
-  if (b.max_mm <= 0) b.max_mm = 10.0 * std::max({g.spacing.x, g.spacing.y, g.spacing.z});
+  if (b.max_mm <= 0) b.max_mm = 10.0 * sizing_unit_mm;
   b.max_mm = std::max(b.max_mm, b.min_mm);
   return b;
 }

@@ -9,15 +9,16 @@
 namespace cvt {
 
 struct LfsOptions {
-  double min_mm = 0;  // lower clamp (mm); 0 = auto: the largest voxel spacing
-  double max_mm = 0;  // upper clamp (mm); 0 = auto: 10 × the largest voxel spacing, so
-                      // broad, flat parts are still sampled every few voxels
+  double min_mm = 0;  // lower clamp (mm); 0 = auto: the largest voxel spacing (below it the
+                      // image carries no shape)
+  double max_mm = 0;  // upper clamp (mm); 0 = auto: 10 sizing units (object_scale.h), so
+                      // broad, flat parts are still sampled
 };
 
 struct LfsBounds {
   double min_mm, max_mm;
 };
-LfsBounds effective_lfs_bounds(const LfsOptions& options, const Mask& object);
+LfsBounds effective_lfs_bounds(const LfsOptions& options, const Grid& grid, double sizing_unit_mm);
 
 // medial_axis: non-zero on medial-axis voxels (compute_medial_axis).
 Volume<float> compute_local_feature_size(const Mask& medial_axis, const LfsBounds& bounds,

@@ -9,16 +9,15 @@
 
 namespace cvt {
 
-double effective_min_separation_mm(const MedialAxisOptions& options, const Grid& grid) {
-  if (options.min_separation_mm > 0) return options.min_separation_mm;
-  return 3.0 * std::max({grid.spacing.x, grid.spacing.y, grid.spacing.z});
+double effective_min_separation_mm(const MedialAxisOptions& options, double sizing_unit_mm) {
+  return options.min_separation_mm > 0 ? options.min_separation_mm : 3.0 * sizing_unit_mm;
 }
 
 Mask compute_medial_axis(const Mask& object, const Volume<std::int32_t>& nearest_opposite,
                          const MedialAxisOptions& options, const Progress& progress) {
   const Grid& g = object.grid;
   Mask axis(g, 0);
-  const double lambda = effective_min_separation_mm(options, g);
+  const double lambda = options.min_separation_mm;
   const double lambda2 = lambda * lambda;
   const double cos_max = std::cos(options.min_angle_deg * std::numbers::pi / 180.0);
   const std::ptrdiff_t steps[3] = {1, g.dims[0], std::ptrdiff_t(g.dims[0]) * g.dims[1]};

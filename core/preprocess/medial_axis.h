@@ -14,16 +14,17 @@
 namespace cvt {
 
 struct MedialAxisOptions {
-  double min_separation_mm = 0;  // λ (mm); 0 = auto: 3 × the largest voxel spacing
+  double min_separation_mm = 0;  // λ (mm); 0 = auto: 3 sizing units (object_scale.h)
   double min_angle_deg = 120;    // θ (degrees) between the two feature directions
 };
 
 // 0 = not medial, 1 = inner medial axis (object voxel), 2 = outer medial axis (background voxel).
 // nearest_opposite: for every voxel the linear index of the nearest voxel of the other phase.
-// Checks progress for a cancel every k-slice.
+// options.min_separation_mm must be resolved (> 0). Checks progress for a cancel every k-slice.
 Mask compute_medial_axis(const Mask& object, const Volume<std::int32_t>& nearest_opposite,
                          const MedialAxisOptions& options, const Progress& progress = {});
 
-double effective_min_separation_mm(const MedialAxisOptions& options, const Grid& grid);
+// λ in use: the option, or 3 × sizing_unit_mm when it is 0.
+double effective_min_separation_mm(const MedialAxisOptions& options, double sizing_unit_mm);
 
 }  // namespace cvt

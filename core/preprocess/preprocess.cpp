@@ -11,6 +11,7 @@
 #include "base/errors.h"
 #include "base/memory.h"
 #include "fields/smoothing.h"
+#include "preprocess/object_scale.h"
 
 namespace cvt {
 
@@ -125,13 +126,16 @@ PreprocessResult preprocess(std::shared_ptr<const Image> image, const Preprocess
   }
   {
     StepTimer t(r.steps, progress, "medial axis");
-    r.medial_min_separation_mm = effective_min_separation_mm(options.medial_axis, g);
-    r.medial_axis =
-        compute_medial_axis(r.object, r.nearest_opposite, options.medial_axis, progress);
+    r.volume_to_area_mm = volume_to_area_mm(r.object);
+    r.sizing_unit_mm = sizing_unit_mm(r.object, r.volume_to_area_mm);
+    MedialAxisOptions medial = options.medial_axis;
+    medial.min_separation_mm = r.medial_min_separation_mm =
+        effective_min_separation_mm(options.medial_axis, r.sizing_unit_mm);
+    r.medial_axis = compute_medial_axis(r.object, r.nearest_opposite, medial, progress);
   }
   {
     StepTimer t(r.steps, progress, "local feature size");
-    r.lfs_bounds = effective_lfs_bounds(options.lfs, r.object);
+    r.lfs_bounds = effective_lfs_bounds(options.lfs, g, r.sizing_unit_mm);
     r.lfs_mm = compute_local_feature_size(r.medial_axis, r.lfs_bounds, progress);
   }
   // After the transforms, whose temporaries then need not share memory with it.

@@ -40,6 +40,8 @@ struct PreprocessResult {
   std::vector<std::int32_t> boundary;     // F: object voxels with a background 6-neighbour
   CleanupReport cleanup;
   double smoothing_sigma_mm = 0;          // effective values after resolving "auto"
+  double volume_to_area_mm = 0;          // the object's scale (object_scale.h)
+  double sizing_unit_mm = 0;
   double medial_min_separation_mm = 0;
   LfsBounds lfs_bounds{0, 0};
   std::vector<StepTime> steps;
