@@ -44,6 +44,10 @@ class SameAnatomy(unittest.TestCase):
         coarse, fine = mesh(image, work, name), mesh(fine_image, work, name + "_fine")
         fine_voxel = max(meta["check"]["spacing"])
         n0, n1 = coarse["counts"]["vertices"], fine["counts"]["vertices"]
+        print(f"{name}: {n0} -> {n1} vertices; mean {coarse['fidelity']['mean_mm']:.3f} -> "
+              f"{fine['fidelity']['mean_mm']:.3f} mm; p95 {coarse['fidelity']['p95_mm']:.3f} -> "
+              f"{fine['fidelity']['p95_mm']:.3f} mm; Hausdorff {coarse['fidelity']['hausdorff_mm']:.2f} -> "
+              f"{fine['fidelity']['hausdorff_mm']:.2f} mm", file=sys.stderr)
         self.assertLess(abs(n1 - n0) / n0, 0.15, f"{name}: {n0} vertices, {n1} at half spacing")
         v0, v1 = (r["quality"]["validity"] for r in (coarse, fine))
         self.assertTrue(v1["boundary_closed_manifold"])
