@@ -8,7 +8,8 @@ boundary stays one closed surface.
 
 Usage: test_slit.py CVTMESH SOURCE_DIR   (ctest, Release only: a brain-size mesh)
 """
-import gzip
+import importlib.machinery
+import importlib.util
 import json
 import os
 import subprocess
@@ -24,17 +25,13 @@ SOURCE = sys.argv[2] if len(sys.argv) > 2 else "."
 SLIT_MM = np.array([88.0, 114.4, 69.5])  # the slit's floor (INRIMAGE: no origin, 1 mm voxels)
 RADIUS_MM = 8.0
 TOLERANCE_MM = 1.5  # the fidelity tolerance: 1.5 voxels
+SPACING_MM = 1.0    # the phantom's grid (MNI152's 1 mm)
 
-
-def read_inr(path):
-    """Voxels (x, y, z) and spacing of an 8-bit INRIMAGE file."""
-    with gzip.open(path) if path.endswith(".gz") else open(path, "rb") as f:
-        raw = f.read()
-    header = dict(line.split("=", 1) for line in raw[:256].decode().splitlines() if "=" in line)
-    dims = [int(header[k]) for k in ("XDIM", "YDIM", "ZDIM")]
-    spacing = np.array([float(header.get(k, 1)) for k in ("VX", "VY", "VZ")])
-    voxels = np.frombuffer(raw[256:], np.uint8).reshape(dims[::-1]).transpose(2, 1, 0)
-    return voxels, spacing
+# bench/sweep's INRIMAGE reader (numpy, independent of cvtmesh).
+sys.dont_write_bytecode = True
+_loader = importlib.machinery.SourceFileLoader("sweep", os.path.join(SOURCE, "bench", "sweep"))
+sweep = importlib.util.module_from_spec(importlib.util.spec_from_loader("sweep", _loader))
+_loader.exec_module(sweep)
 
 
 def object_surface_points(inside, spacing):
@@ -94,8 +91,8 @@ class SlitStaysOpen(unittest.TestCase):
             raise AssertionError(f"cvtmesh mesh {image}: {r.stderr}")
         with open(report) as f:
             cls.report = json.load(f)
-        voxels, spacing = read_inr(image)
-        cls.object_points = object_surface_points(voxels > 0, spacing)
+        voxels, _ = sweep.read_inr(image)  # (z, y, x)
+        cls.object_points = object_surface_points(voxels.transpose(2, 1, 0) > 0, SPACING_MM)
 
     @classmethod
     def tearDownClass(cls):
