@@ -114,8 +114,19 @@ class LloydStepper {
   bool inside(int i, int j, int k) const;
   void require_voxels() const;
 
+  // Sets the integration grid: sub_³ points per voxel (sub_ odd, so one point is the voxel
+  // centre) where sites are denser than one per 2³ voxels (coarse CT, thin structures), else 1.
+  void subdivide(std::size_t object_voxels);
+
   Grid grid_;
   CvtResolved resolved_;
+  // Integration points: voxels split into sub_³ (sub_ odd). With fewer points than sites, most
+  // sites own none and never move, and the rest sit on voxel centres. Bricks, weights and the
+  // kernel work on fine_ (its own local frame: spacing / sub_ ⊙ fine index); sites, labels and
+  // owners stay on grid_. offset_ = fine-local − image-local of one point.
+  int sub_ = 1;
+  Grid fine_;
+  Vec3 offset_{0, 0, 0};
   std::uint64_t seed_ = 1;
   int max_iterations_ = 100;
   std::array<int, 3> brick_{8, 8, 4};       // voxels per brick along i, j, k
