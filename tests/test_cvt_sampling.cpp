@@ -30,6 +30,16 @@ PreprocessResult small_sphere_object() {
   return preprocess(rasterize(p, g), PreprocessOptions{});
 }
 
+// A 24 mm cube (a slab as thick as wide), rotated, on voxels of the given spacing.
+Mask cube_object(const Vec3& spacing) {
+  const Phantom p = slab_phantom({1, 2, 3}, 24.0, 12.0);
+  const Grid g = grid_around(p, spacing, rotation_matrix({1, 1, 0}, 0.3));
+  const Image img = rasterize(p, g);
+  Mask object(g, 0);
+  for (std::size_t v = 0; v < g.voxel_count(); ++v) object.data[v] = img.voxels.data[v] > 0;
+  return object;
+}
+
 CvtOptions points(std::int64_t n, std::uint64_t seed = 7) {
   CvtOptions o;
   o.interior_points = n;
@@ -148,11 +158,8 @@ TEST(LloydStepper, EnergyNeverIncreasesAndDisplacementShrinks) {
 
 TEST(LloydStepper, UniformDensityGivesEvenSpacing) {
   // A 24 mm cube (slab as thick as wide) with ρ ≡ 1 and anisotropic voxels.
-  const Phantom p = slab_phantom({1, 2, 3}, 24.0, 12.0);
-  const Grid g = grid_around(p, {0.5, 0.6, 0.7}, rotation_matrix({1, 1, 0}, 0.3));
-  const Image img = rasterize(p, g);
-  Mask object(g, 0);
-  for (std::size_t v = 0; v < g.voxel_count(); ++v) object.data[v] = img.voxels.data[v] > 0;
+  const Mask object = cube_object({0.5, 0.6, 0.7});
+  const Grid& g = object.grid;
   const Volume<float> one(g, 1.0f);
   CvtOptions o = points(300);
   o.epsilon_mm = 1e-300;  // run all 150 iterations (or until an exact fixed point)
@@ -174,11 +181,8 @@ TEST(LloydStepper, SitesDenserThanVoxelsStillSpreadEvenly) {
   // Coarse voxels (3 mm, as on a CT of 3.9 mm) and three sites per voxel: on the voxels alone
   // at least two sites in three would own nothing and never move. Lloyd integrates over 3³
   // points per voxel instead; labels stay exact nearest sites of the voxel centres.
-  const Phantom p = slab_phantom({1, 2, 3}, 24.0, 12.0);
-  const Grid g = grid_around(p, {3.0, 3.0, 2.8}, rotation_matrix({1, 1, 0}, 0.3));
-  const Image img = rasterize(p, g);
-  Mask object(g, 0);
-  for (std::size_t v = 0; v < g.voxel_count(); ++v) object.data[v] = img.voxels.data[v] > 0;
+  const Mask object = cube_object({3.0, 3.0, 2.8});
+  const Grid& g = object.grid;
   const auto voxels = std::count(object.data.begin(), object.data.end(), 1);
   const std::int64_t n = 3 * voxels;
   const Volume<float> one(g, 1.0f);
