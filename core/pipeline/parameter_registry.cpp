@@ -232,7 +232,8 @@ std::vector<ParameterSpec> make_registry() {
        .ref = opt<&O::odt_flips>, .active = optimizing},
       // The global flip passes lift Table I's good bins (on the liver +2.5 % in each measure for
       // ~0.2 s), not only the bad tets. Three rather than one: on the liver, skull and brain
-      // phantom +1.3 to +1.7 points in every good bin, tets below 20° halved, for +0.04–0.14 s.
+      // phantom +1.3 to +1.7 points in every good bin and 42–60 % fewer tets below 20°, for
+      // +0.04–0.14 s of stage 6 (single runs; bench/results/compare*.md for whole processes).
       {.key = "global_flip_passes", .section = kOpt, .cli = "opt-global-flip-passes",
        .label = "global flip passes", .stage = S::optimize,
        .tooltip = "In this many first passes, flips also work on mediocre tets (quality below the "
