@@ -1,6 +1,7 @@
 #include "meshing/mesh_generation.h"
 
 #include <algorithm>
+#include <atomic>
 #include <cassert>
 #include <cmath>
 #include <numeric>
@@ -236,8 +237,11 @@ bool pinched_at(const Delaunay& dt, Delaunay::Vertex_handle v,
 
 // Rule 3, last part: kept cells on the boundary that are flat (coplanar samples make
 // zero-volume slivers) go, and so do the flat cells that exposes, so the boundary is not
-// folded over them. Returns how many went.
-std::size_t peel_flat_boundary_cells(const Delaunay& dt, const std::vector<Vec3>& points) {
+// folded over them. Returns the cells that went, in the order they went. The first boundary
+// cells are found in parallel over `cells` (every finite cell), in its order.
+std::vector<Delaunay::Cell_handle> peel_flat_boundary_cells(
+    const Delaunay& dt, const std::vector<Delaunay::Cell_handle>& cells,
+    const std::vector<Vec3>& points) {
   const auto on_boundary = [&](Delaunay::Cell_handle c) {
     for (int k = 0; k < 4; ++k) {
       const Delaunay::Cell_handle n = c->neighbor(k);
@@ -245,6 +249,7 @@ std::size_t peel_flat_boundary_cells(const Delaunay& dt, const std::vector<Vec3>
     }
     return false;
   };
+  // Writes only the cell's own cache, so it may run on several cells at once.
   const auto flat = [&](Delaunay::Cell_handle c) {
     if (c->info().flat < 0) {
       Tet t;
@@ -253,22 +258,41 @@ std::size_t peel_flat_boundary_cells(const Delaunay& dt, const std::vector<Vec3>
     }
     return c->info().flat == 1;
   };
-  std::vector<Delaunay::Cell_handle> stack;
-  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c)
-    if (c->info().fate == kept_cell && on_boundary(c) && flat(c)) stack.push_back(c);
-  std::size_t peeled = 0;
+  constexpr std::size_t kChunk = 8192;
+  std::vector<std::vector<Delaunay::Cell_handle>> found((cells.size() + kChunk - 1) / kChunk);
+  tbb::parallel_for(std::size_t(0), found.size(), [&](std::size_t n) {
+    for (std::size_t i = n * kChunk; i < std::min(cells.size(), (n + 1) * kChunk); ++i) {
+      const Delaunay::Cell_handle c = cells[i];
+      if (c->info().fate == kept_cell && on_boundary(c) && flat(c)) found[n].push_back(c);
+    }
+  });
+  std::vector<Delaunay::Cell_handle> stack, peeled;
+  for (const auto& chunk : found) stack.insert(stack.end(), chunk.begin(), chunk.end());
   while (!stack.empty()) {
     const Delaunay::Cell_handle c = stack.back();
     stack.pop_back();
     if (c->info().fate != kept_cell) continue;
     c->info().fate = flat_cell;
-    ++peeled;
+    peeled.push_back(c);
     for (int k = 0; k < 4; ++k) {
       const Delaunay::Cell_handle n = c->neighbor(k);
       if (!dt.is_infinite(n) && n->info().fate == kept_cell && flat(n)) stack.push_back(n);
     }
   }
   return peeled;
+}
+
+// The samples among `around` (vertices of dt) whose boundary link pinches, in index order.
+std::vector<std::int32_t> pinched_among(const Delaunay& dt,
+                                        std::vector<Delaunay::Vertex_handle> around) {
+  std::sort(around.begin(), around.end(), [](auto a, auto b) { return a->info() < b->info(); });
+  around.erase(std::unique(around.begin(), around.end()), around.end());
+  std::vector<std::int32_t> pinched;
+  std::vector<Delaunay::Cell_handle> cells;  // pinched_at's work lists
+  std::vector<std::pair<std::int32_t, std::int32_t>> link;
+  for (const Delaunay::Vertex_handle v : around)
+    if (v->info() >= 0 && pinched_at(dt, v, cells, link)) pinched.push_back(v->info());
+  return pinched;
 }
 
 // What the poles of hull samples need: B's centroid (behind every hull facet) and a distance
@@ -698,20 +722,19 @@ MeshGenerationResult DelaunayMesher::mesh() {
     if (pass == 0) {
       pinched = pinched_vertices(std::size_t(nb + ni), kept_boundary(dt, cells));
     } else {
-      std::sort(retest.begin(), retest.end(),
-                [](auto a, auto b) { return a->info() < b->info(); });
-      retest.erase(std::unique(retest.begin(), retest.end()), retest.end());
-      std::vector<Delaunay::Cell_handle> around;  // pinched_at's work lists
-      std::vector<std::pair<std::int32_t, std::int32_t>> link;
-      for (const Delaunay::Vertex_handle v : retest)
-        if (pinched_at(dt, v, around, link)) pinched.push_back(v->info());
+      pinched = pinched_among(dt, std::move(retest));
     }
     if (pinched.empty()) {
       // Flat cells are peeled from the boundary once it no longer pinches; if that makes a
-      // pinch, its samples go too and the passes go on.
-      out.repair.flat_removed = peel_flat_boundary_cells(dt, points);
-      if (out.repair.flat_removed > 0)
-        pinched = pinched_vertices(std::size_t(nb + ni), kept_boundary(dt, finite_cells(dt)));
+      // pinch, its samples go too and the passes go on. Only the peeled cells' corners can
+      // pinch now.
+      const std::vector<Delaunay::Cell_handle> peeled =
+          peel_flat_boundary_cells(dt, pass == 0 ? cells : finite_cells(dt), points);
+      out.repair.flat_removed = peeled.size();
+      std::vector<Delaunay::Vertex_handle> corners;
+      for (const Delaunay::Cell_handle c : peeled)
+        for (int k = 0; k < 4; ++k) corners.push_back(c->vertex(k));
+      pinched = pinched_among(dt, std::move(corners));
     }
     if (pinched.empty()) {
       pinch_free = true;
@@ -769,29 +792,46 @@ MeshGenerationResult DelaunayMesher::mesh() {
   // lies on a face between a kept cell and another around it, so this stays right for every
   // sample the mesh keeps. Peeling changes faces anywhere: then the mesh's faces decide.
   std::vector<std::uint8_t> sample_on_boundary(peel ? 0 : std::size_t(nb + ni), 0);
-  for (auto c = dt.finite_cells_begin(); c != dt.finite_cells_end(); ++c) {
-    if (c->info().fate == pole_cell) continue;
-    std::array<Vec3, 4> corners;
-    Tet t;
-    for (int k = 0; k < 4; ++k) {
-      t[k] = c->vertex(k)->info();
-      corners[k] = to_vec(c->vertex(k)->point());
-    }
-    if (!peel && c->info().fate == kept_cell)
+  // Cells in chunks on all cores, joined in cell order.
+  struct Chunk {
+    std::vector<std::pair<Tet, Delaunay::Cell_handle>> kept;
+    std::vector<std::array<Vec3, 4>> outside, flat;
+  };
+  const std::vector<Delaunay::Cell_handle> all_cells = finite_cells(dt);
+  constexpr std::size_t kChunk = 8192;
+  std::vector<Chunk> chunks((all_cells.size() + kChunk - 1) / kChunk);
+  tbb::parallel_for(std::size_t(0), chunks.size(), [&](std::size_t n) {
+    Chunk& chunk = chunks[n];
+    for (std::size_t i = n * kChunk; i < std::min(all_cells.size(), (n + 1) * kChunk); ++i) {
+      const Delaunay::Cell_handle c = all_cells[i];
+      if (c->info().fate == pole_cell) continue;
+      std::array<Vec3, 4> corners;
+      Tet t;
       for (int k = 0; k < 4; ++k) {
-        const Delaunay::Cell_handle n = c->neighbor(k);
-        if (!dt.is_infinite(n) && n->info().fate == kept_cell) continue;
-        for (int j = 0; j < 4; ++j)
-          if (j != k) sample_on_boundary[std::size_t(t[j])] = 1;
+        t[k] = c->vertex(k)->info();
+        corners[k] = to_vec(c->vertex(k)->point());
       }
-    if (c->info().fate == outside_cell) {
-      ++out.removed_by_centroid;
-      out.removed_outside.push_back(corners);
-    } else if (c->info().fate == flat_cell) {
-      out.removed_by_repair.push_back(corners);
-    } else {
-      kept.push_back({canonical(t), c});
+      if (!peel && c->info().fate == kept_cell)
+        for (int k = 0; k < 4; ++k) {
+          const Delaunay::Cell_handle nb_cell = c->neighbor(k);
+          if (!dt.is_infinite(nb_cell) && nb_cell->info().fate == kept_cell) continue;
+          for (int j = 0; j < 4; ++j)  // every writer stores the same 1
+            if (j != k) std::atomic_ref(sample_on_boundary[std::size_t(t[j])]).store(1, std::memory_order_relaxed);
+        }
+      if (c->info().fate == outside_cell) chunk.outside.push_back(corners);
+      else if (c->info().fate == flat_cell) chunk.flat.push_back(corners);
+      else chunk.kept.push_back({canonical(t), c});
     }
+  });
+  std::size_t kept_count = 0;
+  for (const Chunk& chunk : chunks) kept_count += chunk.kept.size();
+  kept.reserve(kept_count);
+  for (Chunk& chunk : chunks) {
+    out.removed_by_centroid += chunk.outside.size();
+    out.removed_outside.insert(out.removed_outside.end(), chunk.outside.begin(), chunk.outside.end());
+    out.removed_by_repair.insert(out.removed_by_repair.end(), chunk.flat.begin(), chunk.flat.end());
+    kept.insert(kept.end(), chunk.kept.begin(), chunk.kept.end());
+    chunk = Chunk();
   }
   // CGAL's vertex removal orders its work by handle address, which varies from run to run;
   // a canonical order keeps the repair step (order-dependent) deterministic. No two cells
