@@ -816,7 +816,9 @@ MeshGenerationResult DelaunayMesher::mesh() {
           const Delaunay::Cell_handle nb_cell = c->neighbor(k);
           if (!dt.is_infinite(nb_cell) && nb_cell->info().fate == kept_cell) continue;
           for (int j = 0; j < 4; ++j)  // every writer stores the same 1
-            if (j != k) std::atomic_ref(sample_on_boundary[std::size_t(t[j])]).store(1, std::memory_order_relaxed);
+            if (j != k)
+              std::atomic_ref(sample_on_boundary[std::size_t(t[j])])
+                  .store(1, std::memory_order_relaxed);
         }
       if (c->info().fate == outside_cell) chunk.outside.push_back(corners);
       else if (c->info().fate == flat_cell) chunk.flat.push_back(corners);
@@ -828,7 +830,8 @@ MeshGenerationResult DelaunayMesher::mesh() {
   kept.reserve(kept_count);
   for (Chunk& chunk : chunks) {
     out.removed_by_centroid += chunk.outside.size();
-    out.removed_outside.insert(out.removed_outside.end(), chunk.outside.begin(), chunk.outside.end());
+    out.removed_outside.insert(out.removed_outside.end(), chunk.outside.begin(),
+                               chunk.outside.end());
     out.removed_by_repair.insert(out.removed_by_repair.end(), chunk.flat.begin(), chunk.flat.end());
     kept.insert(kept.end(), chunk.kept.begin(), chunk.kept.end());
     chunk = Chunk();
