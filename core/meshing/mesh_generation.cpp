@@ -394,6 +394,7 @@ struct DelaunayMesher::State {
   std::vector<Delaunay::Vertex_handle> handle;  // per sample of B ∪ I; null once deleted
   std::unordered_map<const void*, int> pole_uses;  // samples whose exterior pole a vertex is
   std::vector<int> pinched;  // samples rule 3 deleted since the last refine (index in B ∪ I)
+  bool pinch_free = false;   // the last mesh() ended with no vertex pinched
 
   std::vector<Pole> classify(const std::vector<Vec3>& at) const {
     std::vector<Pole> out;
@@ -708,18 +709,21 @@ MeshGenerationResult DelaunayMesher::mesh() {
     // pinched samples come out in index order, so their removal order is deterministic.
     // Every fate now settles. Cells not listed kept theirs, and restore_enclosed touched only
     // outside ones.
+    // The first pass of the first mesh tests every vertex; later ones only those around a
+    // change, as every vertex pinched before was removed. (A refine's new cells cover every
+    // vertex whose cells it changed, and a mesh that ended pinch-free had none pinched.)
+    const bool test_all = pass == 0 && !s.pinch_free;
     std::vector<Delaunay::Vertex_handle> retest;
-    for (const auto& list : {changed, outside})
-      for (const Delaunay::Cell_handle c : list) {
+    for (const auto* list : {&changed, &outside})
+      for (const Delaunay::Cell_handle c : *list) {
         if (c->info().fate == c->info().settled) continue;
         c->info().settled = static_cast<signed char>(c->info().fate);
+        if (test_all) continue;
         for (int k = 0; k < 4; ++k)
           if (c->vertex(k)->info() >= 0) retest.push_back(c->vertex(k));
       }
-    // The first pass tests every vertex; later ones only those around a change, as every
-    // vertex pinched before was removed.
     std::vector<std::int32_t> pinched;
-    if (pass == 0) {
+    if (test_all) {
       pinched = pinched_vertices(std::size_t(nb + ni), kept_boundary(dt, cells));
     } else {
       pinched = pinched_among(dt, std::move(retest));
@@ -747,6 +751,7 @@ MeshGenerationResult DelaunayMesher::mesh() {
       out.pinched_samples.push_back(v < nb ? s.surface[v] : s.interior[v - nb]);
     }
   }
+  s.pinch_free = pinch_free;
   // (After the passes: slit poles that carved a void are near-surface ones now.)
   for (const auto& sample : s.poles)
     for (const State::Pole& pole : sample) {
