@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <numeric>
 
 namespace cvt {
@@ -273,14 +274,22 @@ std::size_t remove_small_tet_components(const std::vector<Vec3>& points, std::ve
                                         double fraction,
                                         std::vector<std::array<Vec3, 4>>* removed_out) {
   if (tets.empty()) return 0;
-  // Volumes summed in tet order, so the figures do not depend on how components are numbered.
-  std::vector<double> volume(std::size_t(*std::max_element(component.begin(), component.end())) + 1, 0.0);
-  for (std::size_t t = 0; t < tets.size(); ++t) volume[component[t]] += volume_of(points, tets[t]);
-  const double largest = *std::max_element(volume.begin(), volume.end());
+  // Volumes summed in fixed point (the largest tet near 2^30 units), exact in any order, so the
+  // result depends neither on the order of the tets nor on how components are numbered.
+  std::vector<double> tet_volume(tets.size());
+  double biggest = 0;
+  for (std::size_t t = 0; t < tets.size(); ++t)
+    biggest = std::max(biggest, std::abs(tet_volume[t] = volume_of(points, tets[t])));
+  const double unit = biggest > 0 ? std::ldexp(1.0, 30 - std::ilogb(biggest)) : 1.0;
+  std::vector<std::int64_t> volume(
+      std::size_t(*std::max_element(component.begin(), component.end())) + 1, 0);
+  for (std::size_t t = 0; t < tets.size(); ++t)
+    volume[component[t]] += std::llround(tet_volume[t] * unit);
+  const double largest = double(*std::max_element(volume.begin(), volume.end()));
   std::vector<Tet> kept;
   kept.reserve(tets.size());
   for (std::size_t t = 0; t < tets.size(); ++t) {
-    if (volume[component[t]] >= fraction * largest) {
+    if (double(volume[component[t]]) >= fraction * largest) {
       kept.push_back(tets[t]);
     } else if (removed_out) {
       removed_out->push_back({points[tets[t][0]], points[tets[t][1]], points[tets[t][2]],

@@ -842,10 +842,12 @@ MeshGenerationResult DelaunayMesher::mesh() {
     chunk = Chunk();
   }
   // CGAL's vertex removal orders its work by handle address, which varies from run to run;
-  // a canonical order keeps the repair step (order-dependent) deterministic. No two cells
-  // have the same corners, so the order is total.
-  tbb::parallel_sort(kept.begin(), kept.end(),
-                     [](const auto& a, const auto& b) { return a.first < b.first; });
+  // a canonical order keeps the peeling repair (order-dependent) deterministic. No two cells
+  // have the same corners, so the order is total. Without it, only the small components'
+  // removal follows, which is order-free, and the tets are sorted at the end.
+  if (peel)
+    tbb::parallel_sort(kept.begin(), kept.end(),
+                       [](const auto& a, const auto& b) { return a.first < b.first; });
   grouping.wait();
   std::vector<Tet> tets(kept.size());
   std::vector<std::int32_t> group(kept.size());
