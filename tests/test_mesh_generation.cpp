@@ -1,6 +1,7 @@
 // Stage 5 on phantoms through the whole pipeline: a valid tet mesh whose boundary has the
 // object's topology, close to the analytic volume, and the same mesh every time.
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
 
 #include <algorithm>
 #include <cmath>
@@ -106,6 +107,22 @@ TEST(MeshGeneration, SameInputSameMesh) {
     ASSERT_TRUE(a.mesh.vertices[i] == b.mesh.vertices[i]) << i;
   expect_valid(a.quality);
   EXPECT_EQ(a.quality.validity.boundary.components, 2u);  // two spheres 1.5 mm apart
+}
+
+// Stage 5's triangulation is built by all threads, each inserting where it can lock; the
+// triangulation, and every step after it, must not depend on which thread got where.
+TEST(MeshGeneration, OneThreadGivesTheMeshOfAll) {
+  const Phantom p = torus_phantom({-4, 1, 2}, 9.0, 3.5);
+  const PhantomMesh all = mesh_phantom(p);
+  PhantomMesh one;
+  {
+    const tbb::global_control limit(tbb::global_control::max_allowed_parallelism, 1);
+    one = mesh_phantom(p);
+  }
+  ASSERT_EQ(all.mesh.vertices.size(), one.mesh.vertices.size());
+  EXPECT_EQ(all.mesh.tets, one.mesh.tets);
+  for (std::size_t i = 0; i < all.mesh.vertices.size(); ++i)
+    ASSERT_TRUE(all.mesh.vertices[i] == one.mesh.vertices[i]) << i;
 }
 
 // Rule 3's fallback on its own: with no rounds of sample deletion, peeling alone must leave the

@@ -7,14 +7,19 @@
 #include <numeric>
 #include <tuple>
 #include <unordered_map>
+#include <unordered_set>
 
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/global_control.h>
 #include <tbb/parallel_for.h>
 #include <tbb/parallel_sort.h>
+#include <tbb/task_arena.h>
 #include <tbb/task_group.h>
 
 #include <CGAL/Delaunay_triangulation_3.h>
 #include <CGAL/Delaunay_triangulation_cell_base_3.h>
 #include <CGAL/Exact_predicates_inexact_constructions_kernel.h>
+#include <CGAL/Spatial_lock_grid_3.h>
 #include <CGAL/Spatial_sort_traits_adapter_3.h>
 #include <CGAL/property_map.h>
 #include <CGAL/spatial_sort.h>
@@ -42,8 +47,15 @@ struct CellInfo {
 };
 using CellBase = CGAL::Triangulation_cell_base_with_info_3<
     CellInfo, Kernel, CGAL::Delaunay_triangulation_cell_base_3<Kernel>>;
-using DataStructure = CGAL::Triangulation_data_structure_3<VertexBase, CellBase>;
-using Delaunay = CGAL::Delaunay_triangulation_3<Kernel, DataStructure>;
+// Delaunay(B ∪ I ∪ EP) is built on every core (CGAL's concurrent triangulation, with a lock
+// grid while it is built); Delaunay(B) for the poles is small and stays sequential.
+using DataStructure =
+    CGAL::Triangulation_data_structure_3<VertexBase, CellBase, CGAL::Parallel_tag>;
+using LockGrid = CGAL::Spatial_lock_grid_3<CGAL::Tag_priority_blocking>;
+using Delaunay = CGAL::Delaunay_triangulation_3<Kernel, DataStructure, CGAL::Default, LockGrid>;
+using SampleDelaunay = CGAL::Delaunay_triangulation_3<
+    Kernel, CGAL::Triangulation_data_structure_3<
+                VertexBase, CGAL::Delaunay_triangulation_cell_base_3<Kernel>>>;
 using Point = Kernel::Point_3;
 
 enum CellFate : int { kept_cell, pole_cell, outside_cell, flat_cell };
@@ -54,37 +66,83 @@ constexpr int kPole = -1, kSlitPole = -2;
 Point to_point(const Vec3& v) { return {v.x, v.y, v.z}; }
 Vec3 to_vec(const Point& p) { return {p.x(), p.y(), p.z()}; }
 
-// Inserts the points (info attached) into dt; handles (when given) receives each point's
-// vertex; a point equal to an earlier one shares its vertex, which keeps the earlier info.
+std::vector<std::size_t> spatial_order(const std::vector<Point>& p) {
+  std::vector<std::size_t> order(p.size());
+  std::iota(order.begin(), order.end(), std::size_t(0));
+  using SortTraits =
+      CGAL::Spatial_sort_traits_adapter_3<Kernel, CGAL::Pointer_property_map<Point>::const_type>;
+  CGAL::spatial_sort(order.begin(), order.end(), SortTraits(CGAL::make_property_map(p), Kernel()));
+  return order;
+}
+
+// Inserts the points into dt (empty), in spatial order, on every core: each thread from its
+// last vertex, locking the grid cells of what it changes, and again on a conflict. Lock cells
+// span `box` (points outside fall into its border cells). The result is unique up to
+// cospherical degeneracies, which CGAL resolves by symbolic perturbation, whatever the order.
+// Infos are set afterwards: a point equal to an earlier one (in input order) shares its vertex,
+// which keeps the earlier info. handles receives each point's vertex.
 void insert_points(Delaunay& dt, const std::vector<std::pair<Point, int>>& points,
-                   const Progress& progress, std::vector<Delaunay::Vertex_handle>* handles = nullptr) {
-  // CGAL's range insertion, step for step (spatial sort, then each point from the previous
-  // one's vertex), so the triangulation is the same; but it takes ~0.3 s on the liver, so a
-  // cancel is checked every few thousand points. With distinct inputs the result is unique up
-  // to cospherical degeneracies, which CGAL resolves by symbolic perturbation (deterministic).
+                   const CGAL::Bbox_3& box, const Progress& progress,
+                   std::vector<Delaunay::Vertex_handle>& handles) {
   std::vector<Point> p;
   p.reserve(points.size());
   for (const auto& [point, info] : points) p.push_back(point);
-  std::vector<std::size_t> order(points.size());
-  std::iota(order.begin(), order.end(), std::size_t(0));
-  using SortTraits =
-      CGAL::Spatial_sort_traits_adapter_3<Kernel, CGAL::Pointer_property_map<Point>::type>;
-  CGAL::spatial_sort(order.begin(), order.end(), SortTraits(CGAL::make_property_map(p), Kernel()));
-  if (handles) handles->assign(points.size(), Delaunay::Vertex_handle());
+  const std::vector<std::size_t> order = spatial_order(p);
+  handles.assign(points.size(), Delaunay::Vertex_handle());
   Delaunay::Vertex_handle hint;
+  // A few points first, sequentially, so the threads start from a 3D triangulation (as CGAL's
+  // own parallel range insertion does); all of them with one thread.
+  const bool parallel =
+      std::min<std::size_t>(tbb::this_task_arena::max_concurrency(),
+                            tbb::global_control::active_value(
+                                tbb::global_control::max_allowed_parallelism)) > 1;
+  std::size_t n = 0;
+  for (; n < order.size() && (!parallel || n < 100 || dt.dimension() < 3); ++n) {
+    if (n % 4096 == 0) progress.check_cancelled();
+    handles[order[n]] = hint = dt.insert(p[order[n]], hint);
+  }
+  if (n < order.size()) {
+    LockGrid lock(box, 50);
+    dt.set_lock_data_structure(&lock);
+    tbb::enumerable_thread_specific<Delaunay::Vertex_handle> hints(hint);
+    try {
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(n, order.size()), [&](const auto& r) {
+        progress.check_cancelled();
+        Delaunay::Vertex_handle& h = hints.local();
+        for (std::size_t m = r.begin(); m != r.end(); ++m) {
+          const Point& q = p[order[m]];
+          for (bool done = false; !done;) {
+            if (dt.try_lock_vertex(h) && dt.try_lock_point(q)) {
+              const Delaunay::Vertex_handle v = dt.insert(q, h, &done);
+              if (done) handles[order[m]] = h = v;
+            }
+            dt.unlock_all_elements();
+          }
+        }
+      });
+    } catch (...) {
+      dt.set_lock_data_structure(nullptr);
+      throw;
+    }
+    dt.set_lock_data_structure(nullptr);
+  }
+  std::unordered_set<const void*> named;
+  named.reserve(points.size());
+  for (std::size_t m = 0; m < points.size(); ++m)
+    if (named.insert(&*handles[m]).second) handles[m]->info() = points[m].second;
+}
+
+// Delaunay(B) with each vertex's index in B, sequentially.
+SampleDelaunay triangulate(const std::vector<Point>& points, const Progress& progress) {
+  SampleDelaunay dt;
+  const std::vector<std::size_t> order = spatial_order(points);
+  SampleDelaunay::Vertex_handle hint;
   for (std::size_t n = 0; n < order.size(); ++n) {
     if (n % 4096 == 0) progress.check_cancelled();
     const std::size_t before = dt.number_of_vertices();
-    hint = dt.insert(p[order[n]], hint);
-    if (dt.number_of_vertices() > before) hint->info() = points[order[n]].second;
-    if (handles) (*handles)[order[n]] = hint;
+    hint = dt.insert(points[order[n]], hint);
+    if (dt.number_of_vertices() > before) hint->info() = int(order[n]);
   }
-}
-
-Delaunay triangulate(const std::vector<std::pair<Point, int>>& points, const Progress& progress,
-                     std::vector<Delaunay::Vertex_handle>* handles = nullptr) {
-  Delaunay dt;
-  insert_points(dt, points, progress, handles);
   return dt;
 }
 
@@ -129,9 +187,12 @@ Vec3 jitter(int index, const MeshGenerationOptions& options) {
 // in a channel narrower than the smoothing the indicator never drops to inside_from.
 bool centroid_outside(Delaunay::Cell_handle c, const OccupancyFunction& occupancy,
                       const MeshGenerationOptions& options) {
+  // Summed in sample order, so the rounding does not depend on how the cell lists its corners.
+  std::array<Delaunay::Vertex_handle, 4> v{c->vertex(0), c->vertex(1), c->vertex(2), c->vertex(3)};
+  std::sort(v.begin(), v.end(), [](auto a, auto b) { return a->info() < b->info(); });
   std::array<Vec3, 4> p;
   Vec3 centroid{0, 0, 0};
-  for (int k = 0; k < 4; ++k) centroid += p[k] = to_vec(c->vertex(k)->point());
+  for (int k = 0; k < 4; ++k) centroid += p[k] = to_vec(v[k]->point());
   double longest2 = 0;
   for (int a = 0; a < 4; ++a)
     for (int b = a + 1; b < 4; ++b) longest2 = std::max(longest2, squared_distance(p[a], p[b]));
@@ -313,8 +374,8 @@ PoleFrame pole_frame(const std::vector<Vec3>& surface) {
 // Appends the poles of the sample at v of Delaunay(B) (paper III-F): the farthest Voronoi
 // vertex, and the farthest on the opposite side; for a sample on the convex hull, a point far
 // out along the outward normal.
-void poles_of(const Delaunay& dt, Delaunay::Vertex_handle v, const PoleFrame& frame,
-              std::vector<Delaunay::Cell_handle>& cells, std::vector<Vec3>& poles) {
+void poles_of(const SampleDelaunay& dt, SampleDelaunay::Vertex_handle v,
+              const PoleFrame& frame, std::vector<SampleDelaunay::Cell_handle>& cells, std::vector<Vec3>& poles) {
   const Vec3 s = to_vec(v->point());
   cells.clear();
   dt.incident_cells(v, std::back_inserter(cells));
@@ -387,7 +448,7 @@ struct DelaunayMesher::State {
   MeshGenerationOptions options;
   Progress progress;
   std::vector<Vec3> surface, interior;  // B, and I as inserted (nudged)
-  Delaunay samples_dt;                  // Delaunay(B); vertex info: index in B
+  SampleDelaunay samples_dt;            // Delaunay(B); vertex info: index in B
   PoleFrame frame;
   std::vector<std::vector<Pole>> poles;  // per sample of B
   Delaunay dt;                           // vertex info: index in B ∪ I, or kPole / kSlitPole
@@ -407,8 +468,8 @@ struct DelaunayMesher::State {
   }
 
   // Poles of B's sample at vertex v of samples_dt.
-  std::vector<Pole> poles_at(Delaunay::Vertex_handle v) const {
-    std::vector<Delaunay::Cell_handle> cells;
+  std::vector<Pole> poles_at(SampleDelaunay::Vertex_handle v) const {
+    std::vector<SampleDelaunay::Cell_handle> cells;
     std::vector<Vec3> at;
     poles_of(samples_dt, v, frame, cells, at);
     return classify(at);
@@ -454,8 +515,9 @@ struct DelaunayMesher::State {
           else if (seen.first->second) reaches_outside = true;
         }
       }
-      queue.clear();
       if (reaches_outside) {
+        for (const Delaunay::Cell_handle c : queue) open[&*c] = true;  // met, not yet crossed
+        queue.clear();
         for (const Delaunay::Cell_handle c : region) open[&*c] = true;
         for (const Delaunay::Cell_handle c : around) open[&*c] = true;
         continue;
@@ -510,52 +572,45 @@ DelaunayMesher::DelaunayMesher(const std::vector<Vec3>& surface,
   s.interior = interior;
   for (std::size_t i = 0; i < interior.size(); ++i) s.interior[i] += jitter(int(i), options);
 
-  // Delaunay(B ∪ I) is built on one core while the poles are found on the other; the
-  // exterior poles join it afterwards (the triangulation does not depend on the order).
+  // The poles first, from Delaunay(B); then Delaunay(B ∪ I ∪ EP) in one parallel build.
   progress("poles", 0.0);
   const int nb = int(surface.size()), ni = int(interior.size());
-  std::vector<std::pair<Point, int>> samples;
-  samples.reserve(surface.size() + interior.size());
-  for (int i = 0; i < nb; ++i) samples.push_back({to_point(s.surface[i]), i});
-  for (int i = 0; i < ni; ++i) samples.push_back({to_point(s.interior[i]), nb + i});
-  std::vector<Delaunay::Vertex_handle> handles;
-  const Progress cancel_only{{}, progress.cancel};  // reports come from this thread only
-  tbb::task_group delaunay;
-  delaunay.run([&] { insert_points(s.dt, samples, cancel_only, &handles); });
-  try {
-    std::vector<std::pair<Point, int>> pts(samples.begin(), samples.begin() + nb);
-    s.samples_dt = triangulate(pts, progress);
-    s.frame = pole_frame(surface);
-    s.poles.resize(surface.size());
-    for (auto v = s.samples_dt.finite_vertices_begin(); v != s.samples_dt.finite_vertices_end(); ++v)
-      s.poles[v->info()] = s.poles_at(v);
-    progress("Delaunay", 0.3);
-  } catch (...) {
-    delaunay.cancel();
-    try {
-      delaunay.wait();
-    } catch (...) {
-    }
-    throw;
-  }
-  delaunay.wait();
+  std::vector<Point> b;
+  b.reserve(surface.size());
+  CGAL::Bbox_3 box;  // the lock grid's: the samples' (exterior poles reach far beyond)
+  for (const Vec3& p : s.surface) box += (b.emplace_back(to_point(p))).bbox();
+  for (const Vec3& p : s.interior) box += to_point(p).bbox();
+  s.samples_dt = triangulate(b, progress);
+  s.frame = pole_frame(surface);
+  s.poles.resize(surface.size());
+  std::vector<SampleDelaunay::Vertex_handle> vertices;
+  vertices.reserve(s.samples_dt.number_of_vertices());
+  for (auto v = s.samples_dt.finite_vertices_begin(); v != s.samples_dt.finite_vertices_end(); ++v)
+    vertices.push_back(v);
+  tbb::parallel_for(std::size_t(0), vertices.size(), [&](std::size_t n) {
+    s.poles[vertices[n]->info()] = s.poles_at(vertices[n]);  // reads only Delaunay(B)
+  });
+  progress("Delaunay", 0.3);
 
-  s.handle.assign(std::size_t(nb + ni), Delaunay::Vertex_handle());
-  for (int i = 0; i < nb + ni; ++i)
-    if (handles[i]->info() == i) s.handle[i] = handles[i];  // else a duplicate of an earlier one
+  std::vector<std::pair<Point, int>> points;
+  points.reserve(surface.size() + interior.size());
+  for (int i = 0; i < nb; ++i) points.push_back({b[i], i});
+  for (int i = 0; i < ni; ++i) points.push_back({to_point(s.interior[i]), nb + i});
   std::vector<State::Pole*> exterior;
-  std::vector<std::pair<Point, int>> pts;
   for (auto& sample : s.poles)
     for (State::Pole& pole : sample)
       if (pole.kind == State::PoleKind::exterior) {
         exterior.push_back(&pole);
-        pts.push_back({to_point(pole.at), pole.slit ? kSlitPole : kPole});
+        points.push_back({to_point(pole.at), pole.slit ? kSlitPole : kPole});
       }
-  insert_points(s.dt, pts, progress, &handles);
-  progress.check_cancelled();
+  std::vector<Delaunay::Vertex_handle> handles;
+  insert_points(s.dt, points, box, progress, handles);
+  s.handle.assign(std::size_t(nb + ni), Delaunay::Vertex_handle());
+  for (int i = 0; i < nb + ni; ++i)
+    if (handles[i]->info() == i) s.handle[i] = handles[i];  // else a duplicate of an earlier one
   for (std::size_t k = 0; k < exterior.size(); ++k) {
-    const Delaunay::Vertex_handle v = handles[k];
-    if (v->info() >= 0) continue;
+    const Delaunay::Vertex_handle v = handles[std::size_t(nb + ni) + k];
+    if (v->info() >= 0) continue;  // the point is a sample's: nothing to remove later
     exterior[k]->vertex = v;
     ++s.pole_uses[&*v];
   }
@@ -575,13 +630,13 @@ void DelaunayMesher::refine(const std::vector<Vec3>& new_surface,
   // ones and their neighbours) can have new poles.
   for (int k = 0; k < na; ++k) {
     const std::size_t before = s.samples_dt.number_of_vertices();
-    const Delaunay::Vertex_handle v = s.samples_dt.insert(to_point(new_surface[k]));
+    const SampleDelaunay::Vertex_handle v = s.samples_dt.insert(to_point(new_surface[k]));
     if (s.samples_dt.number_of_vertices() == before) continue;  // a duplicate: no new cell
     v->info() = nb + k;
   }
   s.surface.insert(s.surface.end(), new_surface.begin(), new_surface.end());
   s.poles.resize(std::size_t(nb + na));
-  std::vector<Delaunay::Vertex_handle> changed;
+  std::vector<SampleDelaunay::Vertex_handle> changed;
   for (auto v = s.samples_dt.finite_vertices_begin(); v != s.samples_dt.finite_vertices_end(); ++v)
     if (v->info() >= nb) {
       changed.push_back(v);
