@@ -374,8 +374,8 @@ PoleFrame pole_frame(const std::vector<Vec3>& surface) {
 // Appends the poles of the sample at v of Delaunay(B) (paper III-F): the farthest Voronoi
 // vertex, and the farthest on the opposite side; for a sample on the convex hull, a point far
 // out along the outward normal.
-void poles_of(const SampleDelaunay& dt, SampleDelaunay::Vertex_handle v,
-              const PoleFrame& frame, std::vector<SampleDelaunay::Cell_handle>& cells, std::vector<Vec3>& poles) {
+void poles_of(const SampleDelaunay& dt, SampleDelaunay::Vertex_handle v, const PoleFrame& frame,
+              std::vector<SampleDelaunay::Cell_handle>& cells, std::vector<Vec3>& poles) {
   const Vec3 s = to_vec(v->point());
   cells.clear();
   dt.incident_cells(v, std::back_inserter(cells));
