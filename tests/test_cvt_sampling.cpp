@@ -93,8 +93,11 @@ TEST(CvtOptions, SiteCountFromSpacingAndDensityFormula) {
   EXPECT_NEAR(density_from_lfs(3.0, 3.0), 1.0 - std::exp(-0.5), 1e-15);
 }
 
-TEST(LloydStepper, AssignmentIsExactNearestAndEnergyMatchesDefinition) {
-  const PreprocessResult pre = small_sphere_object();
+namespace {
+
+// Every object voxel's owner is a nearest site (brute force), the point queries agree with the
+// brick pass (ties included), and the energy is Σ ρ_q · d².
+void expect_exact_assignment(const PreprocessResult& pre) {
   LloydStepper st(pre, points(150));
   st.run(2);
   const Grid& g = pre.object.grid;
@@ -129,6 +132,20 @@ TEST(LloydStepper, AssignmentIsExactNearestAndEnergyMatchesDefinition) {
     for (int i = 0; i < g.dims[0]; ++i) ASSERT_EQ(slice[j * g.dims[0] + i], labels.at(i, j, k));
   const IterationStats s = st.step();
   EXPECT_NEAR(s.energy, energy, 1e-9 * energy);
+}
+
+}  // namespace
+
+TEST(LloydStepper, AssignmentIsExactNearestAndEnergyMatchesDefinition) {
+  expect_exact_assignment(small_sphere_object());
+}
+
+TEST(LloydStepper, AssignmentIsExactOnBricksOfManyRows) {
+  // Isotropic voxels: bricks of 8 × 8 × 8, whose candidates are also tested against the sites
+  // nearest to the brick's corners (sampling/nearest_site.cpp).
+  const Phantom p = sphere_phantom({-2, 1, 7}, 6.0);
+  const Grid g = grid_around(p, {0.4, 0.4, 0.4}, rotation_matrix({0, 1, 1}, 1.1));
+  expect_exact_assignment(preprocess(rasterize(p, g), PreprocessOptions{}));
 }
 
 TEST(LloydStepper, EnergyNeverIncreasesAndDisplacementShrinks) {
