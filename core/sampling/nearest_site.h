@@ -55,6 +55,7 @@ struct BrickNearest {
   std::vector<std::int32_t> owner;  // per brick slot: index into cand
   std::vector<double> d2;           // per brick slot: squared distance to that owner (mm²)
   std::vector<double> c_yz;         // per candidate: (y − zy)² + (z − zz)² of the current row
+  std::vector<int> keep;            // the candidates that may be nearest in the current row
 };
 
 // The nearest site of every slot of a brick of `dims` voxels (dims[0] == kBrickRow), slots in
