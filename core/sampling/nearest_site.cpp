@@ -6,8 +6,8 @@
 //     nearest somewhere in that row (row_kernel's bound: the liver 58 → 54 ms per iteration,
 //     the brain-size phantom 249 → 200 ms).
 // Measured per Lloyd iteration on the liver (3.5 M object voxels, 50k sites, single thread),
-// relative to this code: candidates without the bisector test 1.25×; SSE2 kernel 1.5×, AVX-512
-// kernel 1.05×, scalar kernel (branchy, not vectorised) ~2×.
+// before the row bound, relative to the code then: candidates without the bisector test 1.25×;
+// SSE2 kernel 1.5×, AVX-512 kernel 1.05×, scalar kernel (branchy, not vectorised) ~2×.
 #include "sampling/nearest_site.h"
 
 #include <tbb/enumerable_thread_specific.h>
@@ -144,7 +144,7 @@ typedef std::int64_t M4 __attribute__((vector_size(32)));
 // of the row has a candidate within U, so a candidate with e > U is nearest to none of them, not
 // even tied (rounding is monotone, so the kernel's own sums obey the same inequalities). Then
 // the 8 voxels against every other candidate (vectorised over voxels), in candidate order, so
-// ties go to the first candidate as without the bound. `keep` holds m + L ints.
+// ties go to the first candidate as without the bound. `keep` holds at least m ints.
 template <class V, class M>
 [[gnu::always_inline]] inline void row_kernel(const double* xs, double y, double z,
                                               const Candidates& c, double* cyz, int* keep,
