@@ -2,8 +2,10 @@
 
 #include <algorithm>
 #include <atomic>
+#include <cstdint>
 #include <cmath>
 #include <numbers>
+#include <optional>
 
 #include <tbb/parallel_for.h>
 
@@ -22,9 +24,13 @@ Mask compute_medial_axis(const Mask& object, const Volume<std::int32_t>& nearest
   const double cos_max = std::cos(options.min_angle_deg * std::numbers::pi / 180.0);
   const std::ptrdiff_t steps[3] = {1, g.dims[0], std::ptrdiff_t(g.dims[0]) * g.dims[1]};
 
-  auto local = [&](std::size_t v) {
-    const auto c = g.ijk(v);
-    return g.index_to_local({double(c[0]), double(c[1]), double(c[2])});
+  // A feature's position from its linear index; 32-bit division (indices are int32), as this
+  // runs for most pairs of neighbours.
+  const std::uint32_t nx = std::uint32_t(g.dims[0]), ny = std::uint32_t(g.dims[1]);
+  auto local = [&](std::int32_t v) {
+    const std::uint32_t u = std::uint32_t(v), row = u / nx;
+    return Vec3{double(u - row * nx) * g.spacing.x, double(row % ny) * g.spacing.y,
+                double(row / ny) * g.spacing.z};
   };
   // Pairs (p, p + e_axis) are tested once each; a voxel may be marked from several pairs, so
   // marks are relaxed atomic stores of the same value.
@@ -33,18 +39,23 @@ Mask compute_medial_axis(const Mask& object, const Volume<std::int32_t>& nearest
     for (int j = 0; j < g.dims[1]; ++j)
       for (int i = 0; i < g.dims[0]; ++i) {
         const std::size_t p = g.linear(i, j, k);
-        const int a_idx = nearest_opposite.data[p];
+        const std::int32_t a_idx = nearest_opposite.data[p];
         if (a_idx < 0) continue;
         const int coord[3] = {i, j, k};
+        const Vec3 xp = g.index_to_local({double(i), double(j), double(k)});
+        std::optional<Vec3> a_at;  // a's position, once a pair needs it
         for (int ax = 0; ax < 3; ++ax) {
           if (coord[ax] + 1 >= g.dims[ax]) continue;
           const std::size_t q = p + steps[ax];
           if (object.data[q] != object.data[p]) continue;
-          const int b_idx = nearest_opposite.data[q];
+          const std::int32_t b_idx = nearest_opposite.data[q];
           if (b_idx < 0 || b_idx == a_idx) continue;
-          const Vec3 a = local(std::size_t(a_idx)), b = local(std::size_t(b_idx));
+          if (!a_at) a_at = local(a_idx);
+          const Vec3 a = *a_at, b = local(b_idx);
           if (squared_distance(a, b) < lambda2) continue;
-          const Vec3 xp = local(p), xq = local(q);
+          int cq[3] = {i, j, k};
+          ++cq[ax];
+          const Vec3 xq = g.index_to_local({double(cq[0]), double(cq[1]), double(cq[2])});
           const Vec3 u = a - xp, w = b - xq;
           if (dot(u, w) > cos_max * norm(u) * norm(w)) continue;
           // Mark whichever of p, q is nearer the bisector plane of a and b.
