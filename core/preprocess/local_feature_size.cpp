@@ -5,7 +5,6 @@
 
 #include <tbb/parallel_for.h>
 
-#include "fields/distance_transform.h"
 
 namespace cvt {
 
@@ -18,9 +17,9 @@ LfsBounds effective_lfs_bounds(const LfsOptions& options, const Grid& g, double 
 }
 
 Volume<float> compute_local_feature_size(const Mask& medial_axis, const LfsBounds& bounds,
-                                         const Progress& progress) {
-  FeatureTransform ft = compute_feature_transform(medial_axis, /*compute_nearest=*/false, progress);
-  Volume<float> lfs = std::move(ft.squared_distance_mm2);
+                                         const Progress& progress, FeatureTransform work) {
+  compute_feature_transform(medial_axis, work, /*compute_nearest=*/false, progress);
+  Volume<float> lfs = std::move(work.squared_distance_mm2);
   const float lo = float(bounds.min_mm), hi = float(bounds.max_mm);
   tbb::parallel_for(std::size_t(0), lfs.size(), [&](std::size_t v) {
     const float d2 = lfs.data[v];

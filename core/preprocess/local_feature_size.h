@@ -4,6 +4,7 @@
 #pragma once
 
 #include "base/progress.h"
+#include "fields/distance_transform.h"
 #include "base/volume.h"
 
 namespace cvt {
@@ -20,8 +21,10 @@ struct LfsBounds {
 };
 LfsBounds effective_lfs_bounds(const LfsOptions& options, const Grid& grid, double sizing_unit_mm);
 
-// medial_axis: non-zero on medial-axis voxels (compute_medial_axis).
+// medial_axis: non-zero on medial-axis voxels (compute_medial_axis). `work`: a feature
+// transform whose memory the result may take over (see compute_feature_transform).
 Volume<float> compute_local_feature_size(const Mask& medial_axis, const LfsBounds& bounds,
-                                         const Progress& progress = {});
+                                         const Progress& progress = {},
+                                         FeatureTransform work = {});
 
 }  // namespace cvt

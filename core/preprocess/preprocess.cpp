@@ -46,19 +46,23 @@ namespace {
 
 // Nearest voxel of the other phase, for both phases, in one volume: the inner transform
 // (features = background) for object voxels, the outer one for background. The distances are
-// not kept: the nearest voxel gives them (distance_to_opposite_mm), and dropping them as soon
-// as each transform ends keeps stage 1's peak two volumes lower.
-Volume<std::int32_t> nearest_of_other_phase(const Mask& object, const Progress& progress) {
+// not kept: the nearest voxel gives them (distance_to_opposite_mm). Both transforms run in
+// `work`, whose distance buffer is then free for the lfs transform: stage 1 first-touches
+// one distance volume instead of three.
+Volume<std::int32_t> nearest_of_other_phase(const Mask& object, FeatureTransform& work,
+                                            const Progress& progress) {
   Volume<std::int32_t> nearest;
   {
     Mask background(object.grid, 0);
     for (std::size_t v = 0; v < object.size(); ++v) background.data[v] = !object.data[v];
-    nearest = std::move(compute_feature_transform(background, true, progress).nearest);
+    compute_feature_transform(background, work, true, progress);
+    nearest = std::move(work.nearest);
   }
-  const FeatureTransform outer = compute_feature_transform(object, true, progress);
+  compute_feature_transform(object, work, true, progress);
   tbb::parallel_for(std::size_t(0), object.size(), [&](std::size_t v) {
-    if (!object.data[v]) nearest.data[v] = outer.nearest.data[v];
+    if (!object.data[v]) nearest.data[v] = work.nearest.data[v];
   });
+  work.nearest = {};  // stage 1's peak: the outer feature volume goes before the medial axis
   return nearest;
 }
 
@@ -120,9 +124,10 @@ PreprocessResult preprocess(std::shared_ptr<const Image> image, const Preprocess
                        " after clean-up");
   }
   const Grid& g = r.object.grid;
+  FeatureTransform work;
   {
     StepTimer t(r.steps, progress, "distance transform");
-    r.nearest_opposite = nearest_of_other_phase(r.object, progress);
+    r.nearest_opposite = nearest_of_other_phase(r.object, work, progress);
   }
   {
     StepTimer t(r.steps, progress, "medial axis");
@@ -136,7 +141,8 @@ PreprocessResult preprocess(std::shared_ptr<const Image> image, const Preprocess
   {
     StepTimer t(r.steps, progress, "local feature size");
     r.lfs_bounds = effective_lfs_bounds(options.lfs, g, r.sizing_unit_mm);
-    r.lfs_mm = compute_local_feature_size(r.medial_axis, r.lfs_bounds, progress);
+    r.lfs_mm =
+        compute_local_feature_size(r.medial_axis, r.lfs_bounds, progress, std::move(work));
   }
   // After the transforms, whose temporaries then need not share memory with it.
   {
