@@ -5,7 +5,6 @@
 
 #include <tbb/parallel_for.h>
 
-
 namespace cvt {
 
 LfsBounds effective_lfs_bounds(const LfsOptions& options, const Grid& g, double sizing_unit_mm) {
