@@ -659,6 +659,17 @@ TEST(MeshOptimization, RejectsBadInput) {
   TetMesh missing = m;
   missing.tets = {{0, 1, 2, 4}};
   EXPECT_THROW(MeshOptimizer(missing, nullptr), InputError);
+  // The message names the first bad tet, whichever thread finds it.
+  TetMesh many = m;
+  many.tets.assign(10000, m.tets[0]);
+  many.tets[7001] = {0, 2, 1, 3};
+  many.tets[9000] = {0, 1, 2, 4};
+  try {
+    MeshOptimizer(many, nullptr);
+    ADD_FAILURE() << "an inverted tet was accepted";
+  } catch (const InputError& e) {
+    EXPECT_EQ(std::string(e.what()), "mesh optimisation: tet 7001 is not positively oriented");
+  }
   // No passes: the mesh comes back as it was.
   OptimizationOptions none;
   none.max_passes = 0;

@@ -52,11 +52,24 @@ void validate(const TetMesh& mesh, const OptimizationOptions& o) {
   require(mesh.labels.empty() || mesh.labels.size() == mesh.tets.size(),
           "one label per tet expected");
   const std::int64_t n = std::int64_t(mesh.vertices.size());
-  for (std::size_t t = 0; t < mesh.tets.size(); ++t) {
-    for (std::int32_t v : mesh.tets[t])
-      require(v >= 0 && v < n, "tet " + std::to_string(t) + " references a missing vertex");
-    require(signed_volume(mesh, mesh.tets[t]) > 0,
-            "tet " + std::to_string(t) + " is not positively oriented");
+  // The first bad tet, found in parallel; messages are built only for it.
+  const std::size_t bad = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, mesh.tets.size()), mesh.tets.size(),
+      [&](const tbb::blocked_range<std::size_t>& r, std::size_t first) {
+        for (std::size_t t = r.begin(); t < r.end() && t < first; ++t) {
+          const Tet& tet = mesh.tets[t];
+          const bool in_range = std::all_of(tet.begin(), tet.end(),
+                                            [&](std::int32_t v) { return v >= 0 && v < n; });
+          if (!in_range || !(signed_volume(mesh, tet) > 0)) return t;
+        }
+        return first;
+      },
+      [](std::size_t a, std::size_t b) { return std::min(a, b); });
+  if (bad < mesh.tets.size()) {
+    const Tet& tet = mesh.tets[bad];
+    for (std::int32_t v : tet)
+      require(v >= 0 && v < n, "tet " + std::to_string(bad) + " references a missing vertex");
+    require(false, "tet " + std::to_string(bad) + " is not positively oriented");
   }
 }
 
