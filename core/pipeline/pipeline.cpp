@@ -292,9 +292,12 @@ void Pipeline::run_through(Stage last, const Progress& progress) {
 
 int Pipeline::optimize_passes(int k, const Progress& progress) {
   progress(std::string(stage_name(Stage::optimize)), 0.0);
-  if (!optimizer_)
+  if (!optimizer_) {
+    const bool flagged = mesh_->on_boundary.size() == mesh_->mesh.vertices.size();
     optimizer_ = std::make_unique<MeshOptimizer>(mesh_->mesh, &preprocess_->indicator,
-                                                 parameters_.optimization, pass_statistics_);
+                                                 parameters_.optimization, pass_statistics_,
+                                                 flagged ? &mesh_->on_boundary : nullptr);
+  }
   int done = 0;
   // The mesh follows the optimiser also after a cancel (every phase of a pass keeps it valid).
   auto adopt = [&] {
