@@ -4,8 +4,8 @@
 #pragma once
 
 #include "base/progress.h"
-#include "fields/distance_transform.h"
 #include "base/volume.h"
+#include "fields/distance_transform.h"
 
 namespace cvt {
 
