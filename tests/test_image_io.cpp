@@ -24,6 +24,7 @@
 
 #include "base/errors.h"
 #include "io/image_io.h"
+#include "io/image_io_internal.h"
 
 namespace fs = std::filesystem;
 using cvt::Image;
@@ -256,6 +257,25 @@ TEST(ImageIO, FloatNaNIsReadNotRejected) {
   // niftilib replaces non-finite floats by 0 when reading; still no failure.
   cvt::write_image(im, dir / "nan.nii");
   EXPECT_EQ(cvt::read_image(dir / "nan.nii").voxels.data[5], 0.0f);
+}
+
+// The conversion runs in parallel chunks; it still converts every value and reports the first
+// label a float cannot hold, as a serial scan would.
+TEST(ImageIO, ConversionOfLargeBuffersReportsTheFirstBadLabel) {
+  std::vector<std::int32_t> labels(1 << 20);
+  for (std::size_t i = 0; i < labels.size(); ++i) labels[i] = std::int32_t(i % 1000);
+  std::vector<float> out(labels.size(), -1.0f);
+  cvt::io_internal::convert_to_float(labels.data(), "int32", labels.size(), out.data(), true, "x.nrrd");
+  for (std::size_t i = 0; i < labels.size(); i += 997) ASSERT_EQ(out[i], float(i % 1000));
+  labels[700001] = 16777218;
+  labels[900001] = -33554432;
+  try {
+    cvt::io_internal::convert_to_float(labels.data(), "int32", labels.size(), out.data(), true, "x.nrrd");
+    ADD_FAILURE() << "a label beyond 2^24 was accepted";
+  } catch (const cvt::InputError& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "x.nrrd: label 16777218 exceeds 2^24 in magnitude and cannot be stored exactly");
+  }
 }
 
 TEST(ImageIO, SliceFolders) {

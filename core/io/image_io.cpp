@@ -2,6 +2,8 @@
 #include "io/image_io.h"
 #include "io/image_io_internal.h"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_reduce.h>
 #include <unistd.h>
 #include <zlib.h>
 
@@ -100,15 +102,23 @@ void convert_typed(const T* src, std::size_t count, float* dst, bool labels,
                    const std::string& path) {
   // Floats hold every integer up to 2^24 exactly; beyond that two labels could merge.
   constexpr double kMaxLabel = 16777216.0;
-  for (std::size_t i = 0; i < count; ++i) {
-    const double v = double(src[i]);
-    if (labels && std::fabs(v) > kMaxLabel) {
-      std::ostringstream label;
-      label << std::fixed << std::setprecision(0) << v;
-      throw InputError(path + ": label " + label.str() +
-                       " exceeds 2^24 in magnitude and cannot be stored exactly");
-    }
-    dst[i] = float(v);
+  // In parallel; the label reported is the first one out of range, as in a serial scan.
+  const std::size_t bad = tbb::parallel_reduce(
+      tbb::blocked_range<std::size_t>(0, count, std::size_t(1) << 16), count,
+      [&](const tbb::blocked_range<std::size_t>& r, std::size_t first) {
+        for (std::size_t i = r.begin(); i < r.end() && i < first; ++i) {
+          const double v = double(src[i]);
+          if (labels && std::fabs(v) > kMaxLabel) return i;
+          dst[i] = float(v);
+        }
+        return first;
+      },
+      [](std::size_t a, std::size_t b) { return std::min(a, b); });
+  if (bad < count) {
+    std::ostringstream label;
+    label << std::fixed << std::setprecision(0) << double(src[bad]);
+    throw InputError(path + ": label " + label.str() +
+                     " exceeds 2^24 in magnitude and cannot be stored exactly");
   }
 }
 }  // namespace
