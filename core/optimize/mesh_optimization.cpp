@@ -76,8 +76,7 @@ void validate(const TetMesh& mesh, const OptimizationOptions& o) {
 }  // namespace
 
 MeshOptimizer::MeshOptimizer(const TetMesh& mesh, const Volume<float>* indicator,
-                             const OptimizationOptions& options, bool pass_statistics,
-                             const std::vector<std::uint8_t>* on_boundary)
+                             const OptimizationOptions& options, bool pass_statistics)
     : options_(options), pass_statistics_(pass_statistics) {
   const auto t0 = std::chrono::steady_clock::now();
   const double c0 = process_cpu_s();
@@ -85,9 +84,7 @@ MeshOptimizer::MeshOptimizer(const TetMesh& mesh, const Volume<float>* indicator
   input_vertices_ = std::int32_t(mesh.vertices.size());
   opt::QualityScale scale;
   scale.sine = std::sin(options_.target_dihedral_deg * kPi / 180.0);
-  if (on_boundary && on_boundary->size() != mesh.vertices.size())
-    throw InputError("mesh optimisation: one boundary flag per vertex expected");
-  work_ = std::make_unique<opt::WorkMesh>(mesh, scale, on_boundary);
+  work_ = std::make_unique<opt::WorkMesh>(mesh, scale);
   opt::WorkMesh& m = *work_;
   m.on_surface.assign(m.vertex_count(), 0);
   if (indicator) {

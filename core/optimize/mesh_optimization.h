@@ -124,11 +124,8 @@ class MeshOptimizer {
   // history (not counted in the timings; a pass recomputes the figures only of the tets it
   // touched); without, only before the first pass and after the last (the others get the
   // counts and min_quality).
-  // `on_boundary`, when given, flags the mesh's boundary vertices (as stage 5 returns them),
-  // which the optimiser would otherwise find from the faces.
   MeshOptimizer(const TetMesh& mesh, const Volume<float>* indicator,
-                const OptimizationOptions& options = {}, bool pass_statistics = false,
-                const std::vector<std::uint8_t>* on_boundary = nullptr);
+                const OptimizationOptions& options = {}, bool pass_statistics = false);
   ~MeshOptimizer();
   MeshOptimizer(const MeshOptimizer&) = delete;
   MeshOptimizer& operator=(const MeshOptimizer&) = delete;

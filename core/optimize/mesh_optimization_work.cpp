@@ -91,8 +91,7 @@ double tet_quality(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d,
   return std::isfinite(q) ? q : -1.0;
 }
 
-WorkMesh::WorkMesh(const TetMesh& mesh, const QualityScale& quality_scale,
-                   const std::vector<std::uint8_t>* boundary_flags)
+WorkMesh::WorkMesh(const TetMesh& mesh, const QualityScale& quality_scale)
     : pos(mesh.vertices),
       tets(mesh.tets),
       vertex_tets(mesh.vertices.size()),
@@ -108,11 +107,8 @@ WorkMesh::WorkMesh(const TetMesh& mesh, const QualityScale& quality_scale,
                     [&](std::size_t t) { quality[t] = tet_quality(tets[t]); });
   for (std::size_t t = 0; t < tets.size(); ++t)
     for (std::int32_t v : tets[t]) vertex_tets[v].push_back(std::int32_t(t));
-  if (boundary_flags)
-    std::copy(boundary_flags->begin(), boundary_flags->end(), on_boundary.begin());
-  else
-    for (const Triangle& f : boundary_triangles(mesh))
-      for (std::int32_t v : f) on_boundary[v] = 1;
+  for (const Triangle& f : boundary_triangles(mesh))
+    for (std::int32_t v : f) on_boundary[v] = 1;
   vertex_stamp.assign(pos.size(), clock);
   flip_failed.assign(tets.size(), 0);
   insert_failed.assign(tets.size(), 0);

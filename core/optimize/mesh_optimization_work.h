@@ -47,9 +47,7 @@ inline bool is_dead(const Tet& t) {
 // a removed one is left without tets (to_mesh drops it).
 class WorkMesh {
  public:
-  // on_boundary: the boundary vertices' flags if known, else found from the faces.
-  WorkMesh(const TetMesh& mesh, const QualityScale& scale,
-           const std::vector<std::uint8_t>* on_boundary = nullptr);
+  WorkMesh(const TetMesh& mesh, const QualityScale& scale);
   // Live tets in slot order, vertices without tets dropped; `origin` (if given) receives, for
   // each output vertex, its slot here (input vertices first, then inserted ones).
   TetMesh to_mesh(std::vector<std::int32_t>* origin = nullptr) const;

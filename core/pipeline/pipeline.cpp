@@ -292,12 +292,9 @@ void Pipeline::run_through(Stage last, const Progress& progress) {
 
 int Pipeline::optimize_passes(int k, const Progress& progress) {
   progress(std::string(stage_name(Stage::optimize)), 0.0);
-  if (!optimizer_) {
-    const bool flagged = mesh_->on_boundary.size() == mesh_->mesh.vertices.size();
+  if (!optimizer_)
     optimizer_ = std::make_unique<MeshOptimizer>(mesh_->mesh, &preprocess_->indicator,
-                                                 parameters_.optimization, pass_statistics_,
-                                                 flagged ? &mesh_->on_boundary : nullptr);
-  }
+                                                 parameters_.optimization, pass_statistics_);
   int done = 0;
   // The mesh follows the optimiser also after a cancel (every phase of a pass keeps it valid).
   auto adopt = [&] {
