@@ -22,26 +22,6 @@ std::vector<std::int64_t> face_neighbours(std::size_t num_vertices, const std::v
   // several times faster than sorting all 4·#tets keyed faces for meshes of ~1M tets. Each
   // thread owns a range of vertices and scans every tet for the faces of its buckets: scans
   // are cheap, an atomic count per face was not (a third of the time on two cores).
-  // Each tet's corners are sorted once: with s0 < s1 < s2 < s3, the face without s0 is
-  // bucketed at s1 and the other three at s0, and every face's key is read off in order.
-  struct SortedTet {
-    std::array<std::int32_t, 4> s;  // the corners, ascending
-    std::array<std::int8_t, 4> at;  // where each sorted corner sits in the tet
-  };
-  std::vector<SortedTet> sorted(tets.size());
-  tbb::parallel_for(std::size_t(0), tets.size(), [&](std::size_t t) {
-    SortedTet& st = sorted[t];
-    st.s = tets[t];
-    st.at = {0, 1, 2, 3};
-    // A sorting network of five compare-exchanges.
-    const auto order = [&](int a, int b) {
-      if (st.s[b] < st.s[a]) {
-        std::swap(st.s[a], st.s[b]);
-        std::swap(st.at[a], st.at[b]);
-      }
-    };
-    order(0, 1), order(2, 3), order(0, 2), order(1, 3), order(1, 2);
-  });
   const std::size_t parts = std::size_t(std::max(1, tbb::this_task_arena::max_concurrency()));
   const auto part_begin = [&](std::size_t p) {
     return std::int64_t(num_vertices * p / parts);
@@ -49,10 +29,11 @@ std::vector<std::int64_t> face_neighbours(std::size_t num_vertices, const std::v
   std::vector<std::int64_t> bucket_start(num_vertices + 1, 0);
   tbb::parallel_for(std::size_t(0), parts, [&](std::size_t p) {
     const std::int64_t lo = part_begin(p), hi = part_begin(p + 1);
-    for (const SortedTet& st : sorted) {
-      if (st.s[0] >= lo && st.s[0] < hi) bucket_start[std::size_t(st.s[0]) + 1] += 3;
-      if (st.s[1] >= lo && st.s[1] < hi) ++bucket_start[std::size_t(st.s[1]) + 1];
-    }
+    for (const Tet& t : tets)
+      for (const Triangle& f : outward_faces(t)) {
+        const std::int64_t smallest = std::min({f[0], f[1], f[2]});
+        if (smallest >= lo && smallest < hi) ++bucket_start[std::size_t(smallest) + 1];
+      }
   });
   for (std::size_t v = 0; v < num_vertices; ++v) bucket_start[v + 1] += bucket_start[v];
 
@@ -66,19 +47,15 @@ std::vector<std::int64_t> face_neighbours(std::size_t num_vertices, const std::v
   tbb::parallel_for(std::size_t(0), parts, [&](std::size_t p) {
     const std::int64_t lo = part_begin(p), hi = part_begin(p + 1);
     std::vector<std::int64_t> fill(bucket_start.begin() + lo, bucket_start.begin() + hi);
-    const auto put = [&](std::int32_t smallest, std::int32_t b, std::int32_t c, std::int64_t face) {
-      const std::uint64_t key = (std::uint64_t(std::uint32_t(b)) << 32) | std::uint32_t(c);
-      entries[std::size_t(fill[std::size_t(smallest - lo)]++)] = {key, face};
-    };
-    for (std::size_t t = 0; t < sorted.size(); ++t) {
-      const auto& [s, at] = sorted[t];
-      const std::int64_t face = 4 * std::int64_t(t);  // + the corner the face leaves out
-      if (s[0] >= lo && s[0] < hi) {
-        put(s[0], s[2], s[3], face + at[1]);
-        put(s[0], s[1], s[3], face + at[2]);
-        put(s[0], s[1], s[2], face + at[3]);
+    for (std::size_t t = 0; t < tets.size(); ++t) {
+      const auto faces = outward_faces(tets[t]);
+      for (int i = 0; i < 4; ++i) {
+        std::array<std::int32_t, 3> f = faces[i];
+        std::sort(f.begin(), f.end());
+        if (f[0] < lo || f[0] >= hi) continue;
+        const std::uint64_t key = (std::uint64_t(std::uint32_t(f[1])) << 32) | std::uint32_t(f[2]);
+        entries[std::size_t(fill[std::size_t(f[0] - lo)]++)] = {key, std::int64_t(4 * t + i)};
       }
-      if (s[1] >= lo && s[1] < hi) put(s[1], s[2], s[3], face + at[0]);
     }
   });
 
