@@ -265,12 +265,13 @@ TEST(ImageIO, ConversionOfLargeBuffersReportsTheFirstBadLabel) {
   std::vector<std::int32_t> labels(1 << 20);
   for (std::size_t i = 0; i < labels.size(); ++i) labels[i] = std::int32_t(i % 1000);
   std::vector<float> out(labels.size(), -1.0f);
-  cvt::io_internal::convert_to_float(labels.data(), "int32", labels.size(), out.data(), true, "x.nrrd");
+  using cvt::io_internal::convert_to_float;
+  convert_to_float(labels.data(), "int32", labels.size(), out.data(), true, "x.nrrd");
   for (std::size_t i = 0; i < labels.size(); i += 997) ASSERT_EQ(out[i], float(i % 1000));
   labels[700001] = 16777218;
   labels[900001] = -33554432;
   try {
-    cvt::io_internal::convert_to_float(labels.data(), "int32", labels.size(), out.data(), true, "x.nrrd");
+    convert_to_float(labels.data(), "int32", labels.size(), out.data(), true, "x.nrrd");
     ADD_FAILURE() << "a label beyond 2^24 was accepted";
   } catch (const cvt::InputError& e) {
     EXPECT_EQ(std::string(e.what()),

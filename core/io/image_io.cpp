@@ -2,8 +2,6 @@
 #include "io/image_io.h"
 #include "io/image_io_internal.h"
 
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_reduce.h>
 #include <unistd.h>
 #include <zlib.h>
 
@@ -23,6 +21,7 @@
 #include <vector>
 
 #include "base/errors.h"
+#include "base/parallel_find.h"
 
 namespace cvt {
 namespace fs = std::filesystem;
@@ -103,17 +102,15 @@ void convert_typed(const T* src, std::size_t count, float* dst, bool labels,
   // Floats hold every integer up to 2^24 exactly; beyond that two labels could merge.
   constexpr double kMaxLabel = 16777216.0;
   // In parallel; the label reported is the first one out of range, as in a serial scan.
-  const std::size_t bad = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, count, std::size_t(1) << 16), count,
-      [&](const tbb::blocked_range<std::size_t>& r, std::size_t first) {
-        for (std::size_t i = r.begin(); i < r.end() && i < first; ++i) {
-          const double v = double(src[i]);
-          if (labels && std::fabs(v) > kMaxLabel) return i;
-          dst[i] = float(v);
-        }
-        return first;
+  const std::size_t bad = parallel_find_first(
+      count,
+      [&](std::size_t i) {
+        const double v = double(src[i]);
+        if (labels && std::fabs(v) > kMaxLabel) return true;
+        dst[i] = float(v);
+        return false;
       },
-      [](std::size_t a, std::size_t b) { return std::min(a, b); });
+      std::size_t(1) << 16);
   if (bad < count) {
     std::ostringstream label;
     label << std::fixed << std::setprecision(0) << double(src[bad]);

@@ -11,6 +11,7 @@
 #include <nlohmann/json.hpp>
 
 #include "base/errors.h"
+#include "base/parallel_find.h"
 #include "optimize/mesh_optimization_work.h"
 #include "evaluate/quality.h"
 
@@ -53,18 +54,12 @@ void validate(const TetMesh& mesh, const OptimizationOptions& o) {
           "one label per tet expected");
   const std::int64_t n = std::int64_t(mesh.vertices.size());
   // The first bad tet, found in parallel; messages are built only for it.
-  const std::size_t bad = tbb::parallel_reduce(
-      tbb::blocked_range<std::size_t>(0, mesh.tets.size()), mesh.tets.size(),
-      [&](const tbb::blocked_range<std::size_t>& r, std::size_t first) {
-        for (std::size_t t = r.begin(); t < r.end() && t < first; ++t) {
-          const Tet& tet = mesh.tets[t];
-          const bool in_range = std::all_of(tet.begin(), tet.end(),
-                                            [&](std::int32_t v) { return v >= 0 && v < n; });
-          if (!in_range || !(signed_volume(mesh, tet) > 0)) return t;
-        }
-        return first;
-      },
-      [](std::size_t a, std::size_t b) { return std::min(a, b); });
+  const std::size_t bad = parallel_find_first(mesh.tets.size(), [&](std::size_t t) {
+    const Tet& tet = mesh.tets[t];
+    const bool in_range =
+        std::all_of(tet.begin(), tet.end(), [&](std::int32_t v) { return v >= 0 && v < n; });
+    return !in_range || !(signed_volume(mesh, tet) > 0);
+  });
   if (bad < mesh.tets.size()) {
     const Tet& tet = mesh.tets[bad];
     for (std::int32_t v : tet)
