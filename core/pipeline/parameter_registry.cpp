@@ -151,6 +151,12 @@ std::vector<ParameterSpec> make_registry() {
       {.key = "max_iterations", .cli = "max-iterations", .label = "max iterations",
        .stage = S::cvt, .tooltip = "Cap on Lloyd iterations.", .lo = 0, .hi = 100000,
        .ref = top<&P::max_iterations>},
+      {.key = "initial_points", .cli = "initial-points", .label = "initial points",
+       .stage = S::cvt,
+       .tooltip = "Where Lloyd starts: on a lattice thinned to the density (converges in fewer "
+                  "iterations, to a lower energy) or drawn at random from the density (the "
+                  "paper).",
+       .words = {"random", "lattice"}, .ref = top<&P::lattice_start>},
       {.key = "seed", .cli = "seed", .label = "seed", .stage = S::cvt,
        .tooltip = "Seed of every random choice (initial interior points, stage 5's jitter).",
        .ref = top<&P::seed>},

@@ -62,6 +62,7 @@ CvtOptions cvt_options(const Parameters& p, double default_spacing_mm) {
   o.epsilon_mm = p.epsilon_mm;
   o.max_iterations = p.max_iterations;
   o.seed = p.seed;
+  o.lattice_start = p.lattice_start;
   return o;
 }
 

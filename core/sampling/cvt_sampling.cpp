@@ -84,6 +84,7 @@ LloydStepper::LloydStepper(const PreprocessResult& pre, const CvtOptions& option
     : grid_(pre.object.grid),
       resolved_(resolve_cvt_options(options, pre.object)),
       seed_(options.seed),
+      lattice_start_(options.lattice_start),
       max_iterations_(options.max_iterations) {
   // ρ straight from the lfs, voxel by voxel: no density volume (4 bytes per crop voxel).
   if (!pre.lfs_mm.grid.same_geometry(pre.object.grid))
@@ -100,6 +101,7 @@ LloydStepper::LloydStepper(const Mask& object, const Volume<float>& density,
     : grid_(object.grid),
       resolved_(resolve_cvt_options(options, object)),
       seed_(options.seed),
+      lattice_start_(options.lattice_start),
       max_iterations_(options.max_iterations) {
   if (!density.grid.same_geometry(object.grid))
     throw InputError("CVT sampling: the density and the object have different grids");
@@ -200,13 +202,17 @@ void LloydStepper::require_voxels() const {
 bool LloydStepper::inside(int ci, int cj, int ck) const {
   if (!grid_.contains(ci, cj, ck)) return false;
   const int c = (sub_ - 1) / 2;  // the fine point at the voxel centre
-  const int i = ci * sub_ + c, j = cj * sub_ + c, k = ck * sub_ + c;
+  return weight_at(ci * sub_ + c, cj * sub_ + c, ck * sub_ + c) >= 0;
+}
+
+std::int32_t LloydStepper::weight_at(int i, int j, int k) const {
+  if (!fine_.contains(i, j, k)) return -1;
   const int bi = i / brick_[0], bj = j / brick_[1], bk = k / brick_[2];
   const std::int32_t b = brick_at_[(std::size_t(bk) * brick_grid_[1] + bj) * brick_grid_[0] + bi];
-  if (b < 0) return false;
+  if (b < 0) return -1;
   const int slot =
       ((k - bk * brick_[2]) * brick_[1] + (j - bj * brick_[1])) * brick_[0] + (i - bi * brick_[0]);
-  return weight_[std::size_t(b) * brick_[0] * brick_[1] * brick_[2] + slot] >= 0;
+  return weight_[std::size_t(b) * brick_[0] * brick_[1] * brick_[2] + slot];
 }
 
 void LloydStepper::set_sites(std::vector<Vec3> local) {
@@ -219,8 +225,56 @@ void LloydStepper::set_sites(std::vector<Vec3> local) {
   }
 }
 
-// Voxel with probability ∝ its quantised ρ (bricks by binary search on cumulative weights, then
-// a scan inside the brick), uniform position inside the voxel. Integer draws: deterministic.
+// The lattice start (see the header). Its phase is random, so no lattice plane lies on voxel
+// centres; every draw is an integer draw or comes from one, in a fixed order: deterministic.
+std::vector<Vec3> LloydStepper::lattice_sites(std::mt19937_64& rng) const {
+  const Grid& g = fine_;
+  const std::size_t bvol = std::size_t(brick_[0]) * brick_[1] * brick_[2];
+  std::int32_t top = 0;
+  for (std::int32_t w : weight_) top = std::max(top, w);
+  if (top <= 0) return {};
+  // (ρ/ρmax)^(3/5) per weight, computed once per distinct weight met (most are ρmax).
+  auto keep = [&, cache = std::pair<std::int32_t, double>{top, 1.0}](std::int32_t w) mutable {
+    if (w != cache.first) cache = {w, std::pow(double(w) / double(top), 0.6)};
+    return cache.second;
+  };
+  // Σ (ρ/ρmax)^(3/5) over the points, per brick in parallel, summed in brick order.
+  std::vector<double> brick_mass(bricks_.size(), 0.0);
+  tbb::parallel_for(std::size_t(0), bricks_.size(), [&](std::size_t b) {
+    auto k = keep;
+    double m = 0;
+    for (std::size_t s = 0; s < bvol; ++s)
+      if (const std::int32_t w = weight_[b * bvol + s]; w > 0) m += k(w);
+    brick_mass[b] = m;
+  });
+  double mass = 0;
+  for (double m : brick_mass) mass += m;
+  mass *= g.spacing.x * g.spacing.y * g.spacing.z;  // mm³
+  const double nearest = std::cbrt(mass / (kBccVolumePerSite * double(resolved_.sites)));
+  const double cell = 2.0 * nearest / std::sqrt(3.0);  // cubic cell edge
+  const auto unit = [&rng] { return double(rng() >> 11) * 0x1p-53; };
+  const Vec3 phase{unit() * cell, unit() * cell, unit() * cell};
+  // Fine-local frame: point n of the fine grid is at n ⊙ spacing; the grid spans ±half a point.
+  const Vec3 lo = g.spacing * -0.5;
+  const Vec3 hi{(g.dims[0] - 0.5) * g.spacing.x, (g.dims[1] - 0.5) * g.spacing.y,
+                (g.dims[2] - 0.5) * g.spacing.z};
+  std::vector<Vec3> sites;
+  for (int corner = 0; corner < 2; ++corner) {  // the cube corners, then the cube centres
+    const Vec3 start = lo + phase - Vec3{cell, cell, cell} * (corner ? 0.5 : 1.0);
+    for (double z = start.z; z < hi.z; z += cell)
+      for (double y = start.y; y < hi.y; y += cell)
+        for (double x = start.x; x < hi.x; x += cell) {
+          if (x < lo.x || y < lo.y || z < lo.z) continue;
+          const std::int32_t w = weight_at(int(std::lround(x / g.spacing.x)),
+                                           int(std::lround(y / g.spacing.y)),
+                                           int(std::lround(z / g.spacing.z)));
+          if (w <= 0 || unit() >= keep(w)) continue;
+          sites.push_back(Vec3{x, y, z} - offset_);
+        }
+  }
+  return sites;
+}
+
 void LloydStepper::initialize() {
   require_voxels();
   const std::size_t bvol = std::size_t(brick_[0]) * brick_[1] * brick_[2];
@@ -233,9 +287,19 @@ void LloydStepper::initialize() {
   const std::uint64_t total = std::uint64_t(cumulative.back());
   if (total == 0) throw InputError("CVT sampling: the density is zero everywhere in the object");
   std::mt19937_64 rng(seed_);
+  const std::size_t n = std::size_t(resolved_.sites);
+  std::vector<Vec3> sites;
+  if (lattice_start_) {
+    sites = lattice_sites(rng);
+    while (sites.size() > n) {  // drop random ones (the last takes the dropped one's place)
+      sites[rng() % sites.size()] = sites.back();
+      sites.pop_back();
+    }
+  }
+  // Voxel with probability ∝ its quantised ρ (bricks by binary search on cumulative weights,
+  // then a scan inside the brick), uniform position inside the voxel.
   auto jitter = [&] { return double(rng() >> 11) * 0x1p-53 - 0.5; };
-  std::vector<Vec3> sites(std::size_t(resolved_.sites));
-  for (Vec3& site : sites) {
+  while (sites.size() < n) {
     const std::int64_t u = std::int64_t(rng() % total);
     const std::size_t b = std::size_t(std::upper_bound(cumulative.begin(), cumulative.end(), u) -
                                       cumulative.begin()) -
@@ -250,7 +314,7 @@ void LloydStepper::initialize() {
               kk = int(s / (brick_[0] * brick_[1]));
     const std::array<int, 3>& o = bricks_[b].origin;
     const double x = o[0] + ii + jitter(), y = o[1] + jj + jitter(), z = o[2] + kk + jitter();
-    site = Vec3{x * fine_.spacing.x, y * fine_.spacing.y, z * fine_.spacing.z} - offset_;
+    sites.push_back(Vec3{x * fine_.spacing.x, y * fine_.spacing.y, z * fine_.spacing.z} - offset_);
   }
   set_sites(std::move(sites));
   history_.clear();

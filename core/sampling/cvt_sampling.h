@@ -10,6 +10,7 @@
 #include <array>
 #include <cstdint>
 #include <functional>
+#include <random>
 #include <vector>
 
 #include "base/progress.h"
@@ -26,6 +27,7 @@ struct CvtOptions {
   double epsilon_mm = 0;             // stop when Σ displacement < ε (mm); 0 = auto (below)
   int max_iterations = 100;          // run_to_convergence stops here anyway
   std::uint64_t seed = 1;            // initial points (std::mt19937_64)
+  bool lattice_start = false;        // initial points on a BCC lattice (below), or drawn from ρ
 };
 
 // Density weights are ρ quantised to multiples of 2^-kWeightBits, so centroid sums are exact
@@ -78,8 +80,14 @@ class LloydStepper {
   LloydStepper(LloydStepper&&) noexcept;
   LloydStepper& operator=(LloydStepper&&) noexcept;
 
-  // Draws the N initial sites from ρ (voxel ∝ ρ, uniform jitter inside it); clears history.
-  // step()/run() call it when needed.
+  // Places the N initial sites; clears history. step()/run() call it when needed.
+  //   - lattice_start: on a BCC lattice (the lattice a uniform CVT tends to), each point kept
+  //     with probability (ρ/ρmax)^(3/5) (a CVT's point density is ∝ ρ^(3/5) in 3D), its
+  //     spacing chosen so that N points are expected; the count is then made exactly N by
+  //     dropping random ones or drawing the rest as below. Far from the boundary the sites
+  //     start where Lloyd would take them, so it converges in fewer iterations to a lower
+  //     energy (the liver: 5 instead of 14).
+  //   - otherwise (the paper): each drawn from ρ (voxel ∝ ρ, uniform jitter inside it).
   void initialize();
   // One Lloyd iteration: assign voxels, move sites to centroids.
   IterationStats step(const Progress& progress = {});
@@ -112,6 +120,8 @@ class LloydStepper {
   void pack_bricks(const Mask& object, const std::function<float(std::size_t)>& density);
   void set_sites(std::vector<Vec3> local);
   bool inside(int i, int j, int k) const;
+  std::int32_t weight_at(int i, int j, int k) const;  // fine point's weight, −1 outside
+  std::vector<Vec3> lattice_sites(std::mt19937_64& rng) const;
   void require_voxels() const;
 
   // Sets the integration grid: sub_³ points per voxel (sub_ odd, so one point is the voxel
@@ -128,6 +138,7 @@ class LloydStepper {
   Grid fine_;
   Vec3 offset_{0, 0, 0};
   std::uint64_t seed_ = 1;
+  bool lattice_start_ = false;
   int max_iterations_ = 100;
   std::array<int, 3> brick_{8, 8, 4};       // voxels per brick along i, j, k
   std::array<int, 3> brick_grid_{0, 0, 0};  // bricks along i, j, k
