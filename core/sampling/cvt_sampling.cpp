@@ -225,8 +225,8 @@ void LloydStepper::set_sites(std::vector<Vec3> local) {
   }
 }
 
-// The lattice start (see the header). Its phase is random, so no lattice plane lies on voxel
-// centres; every draw is an integer draw or comes from one, in a fixed order: deterministic.
+// The lattice start (see the header). Its phase is random, so its planes do not line up with
+// the voxel centres; every draw comes from the seeded generator in a fixed order: deterministic.
 std::vector<Vec3> LloydStepper::lattice_sites(std::mt19937_64& rng) const {
   const Grid& g = fine_;
   const std::size_t bvol = std::size_t(brick_[0]) * brick_[1] * brick_[2];
