@@ -243,6 +243,8 @@ bool MeshOptimizer::step(const Progress& progress) {
       std::max(result_.max_boundary_shift_mm, flips.max_boundary_shift_mm);
   result_.max_flip_face_distance_mm =
       std::max(result_.max_flip_face_distance_mm, flips.max_face_distance_mm);
+  result_.max_flip_replaced_distance_mm =
+      std::max(result_.max_flip_replaced_distance_mm, flips.max_replaced_distance_mm);
   result_.history.push_back(stats);
   return true;
 }
@@ -396,6 +398,7 @@ nlohmann::json to_json(const OptimizationResult& r) {
           {"snapped_vertices", r.snapped_vertices},
           {"max_boundary_shift_mm", r.max_boundary_shift_mm},
           {"max_flip_face_distance_mm", r.max_flip_face_distance_mm},
+          {"max_flip_replaced_distance_mm", r.max_flip_replaced_distance_mm},
           {"boundary_flips", r.boundary_flips},
           {"corner_removals", r.corner_removals},
           {"collapsed_edges", r.collapsed_edges},

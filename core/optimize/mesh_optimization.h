@@ -92,9 +92,11 @@ struct OptimizationResult {
   std::size_t snapped_vertices = 0;       // fixed boundary vertices snapped onto the surface
   // Boundary flips and corner removals: the largest height of a tet cut off (how far the
   // boundary moved), and the largest distance of a new boundary triangle's centroid to the
-  // surface.
+  // surface; of the flips whose new faces are beyond the tolerance, the largest distance of
+  // the faces they replaced (the new ones are no farther).
   double max_boundary_shift_mm = 0;
   double max_flip_face_distance_mm = 0;
+  double max_flip_replaced_distance_mm = 0;
   std::size_t boundary_flips = 0;
   std::size_t corner_removals = 0;    // corner tets (three boundary faces around a vertex with
                                       // no other tet) removed with that vertex
@@ -173,7 +175,8 @@ OptimizationResult optimize_mesh(TetMesh& mesh, const Volume<float>* indicator,
 
 // {"wall_s","setup_s","cpu_s","surface_distance_before_mm","surface_distance_after_mm",
 //  "sliding_vertices","fixed_boundary_vertices","fixed_boundary_distance_mm",
-//  "snapped_vertices","max_boundary_shift_mm","max_flip_face_distance_mm","boundary_flips",
+//  "snapped_vertices","max_boundary_shift_mm","max_flip_face_distance_mm",
+//  "max_flip_replaced_distance_mm","boundary_flips",
 //  "corner_removals","collapsed_edges","inserted_vertices","fit_vertices","fit_mean_offset_mm",
 //  "fit_max_offset_mm","fit_error_before_mm","fit_error_after_mm","fit_s",
 //  "passes":[{"pass","wall_s","cpu_s","flips_s","odt_s","smoothing_s","insertion_s","tets",

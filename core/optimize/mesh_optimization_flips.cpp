@@ -36,6 +36,7 @@ struct Plan {
   std::int32_t label = 1;
   double shift_mm = 0;          // boundary flip: how far the boundary moves (mm)
   double face_distance_mm = 0;  // … and its new faces' distance to the surface
+  double replaced_distance_mm = 0;  // … and the old faces', when the new are beyond tolerance
 };
 
 // The edges (i, j) of a tet, the two faces through each (opposite k, l).
@@ -72,8 +73,10 @@ double tet_height(const Vec3& p0, const Vec3& p1, const Vec3& p2, const Vec3& p3
 // ring.front()–ring.back(), whose two faces with a and b become the boundary: a flip of the
 // boundary diagonal, allowed where the boundary is convex (the tet (a, b, front, back) is cut
 // off, never added) and the new boundary follows the segmentation surface: its two faces'
-// centroids and the midpoint of its new edge are within max_face_distance_mm of it (without the
-// surface: the tet cut off is at most max_boundary_shift_mm high). A fan of one tet is simply
+// centroids and the midpoint of its new edge are within max_face_distance_mm of it, or no
+// farther from it than the same points of the two faces replaced (a flat tet straddling the
+// surface, whose removal moves the boundary from one side of it to the other); without the
+// surface: the tet cut off is at most max_boundary_shift_mm high. A fan of one tet is simply
 // removed.
 void plan_edge_removal(const WorkMesh& m, std::int32_t a, std::int32_t b, const TopologyOptions& o,
                        Plan& best) {
@@ -122,20 +125,29 @@ void plan_edge_removal(const WorkMesh& m, std::int32_t a, std::int32_t b, const 
   }
   const double result = n >= 2 ? Q[0][n - 1] : -1.0;
   if (!(result > floor)) return;
-  double face_distance = 0;
+  double face_distance = 0, replaced = 0;
   if (open && o.surface) {
-    // The new boundary faces must stay within max_face_distance_mm of the surface: their
-    // centroids and the midpoint of the new boundary edge (where a cut is deepest).
+    // The new boundary faces must follow the surface: their centroids and the midpoint of the
+    // new boundary edge (where a cut is deepest) within max_face_distance_mm of it, or no
+    // farther than the same points of the faces they replace (then the boundary follows the
+    // surface no worse than before: a flat tet that straddles it may go).
     const Vec3 &pa = m.pos[a], &pb = m.pos[b], &front = m.pos[ring.front()],
                &back = m.pos[ring.back()];
-    for (const Vec3& x :
-         {(front + back) * 0.5, (pa + front + back) / 3.0, (pb + front + back) / 3.0}) {
-      face_distance = std::max(face_distance, o.surface->distance(x));
-      if (face_distance > o.max_face_distance_mm) return;
+    const auto farthest = [&](const Vec3& p, const Vec3& q, const Vec3& r, const Vec3& s) {
+      double d = 0;
+      for (const Vec3& x : {(p + q) * 0.5, (p + q + r) / 3.0, (p + q + s) / 3.0})
+        d = std::max(d, o.surface->distance(x));
+      return d;
+    };
+    face_distance = farthest(front, back, pa, pb);
+    if (face_distance > o.max_face_distance_mm) {
+      replaced = farthest(pa, pb, front, back);
+      if (face_distance > replaced) return;
     }
   }
   best.kind = open ? Plan::boundary_flip : Plan::edge_removal;
   best.face_distance_mm = face_distance;
+  best.replaced_distance_mm = replaced;
   best.edge[0] = open ? ring.front() : -1;
   best.edge[1] = open ? ring.back() : -1;
   best.edge_on_boundary_only = n == 2;
@@ -315,6 +327,8 @@ PassCounts improve_topology(WorkMesh& m, const TopologyOptions& options) {
             counts.max_boundary_shift_mm = std::max(counts.max_boundary_shift_mm, plan.shift_mm);
             counts.max_face_distance_mm =
                 std::max(counts.max_face_distance_mm, plan.face_distance_mm);
+            counts.max_replaced_distance_mm =
+                std::max(counts.max_replaced_distance_mm, plan.replaced_distance_mm);
             break;
           case Plan::corner_removal:
             ++counts.corner_removals;

@@ -204,6 +204,8 @@ struct PassCounts {
   double max_boundary_shift_mm = 0;  // largest boundary move of a boundary flip or corner (mm)
   double max_face_distance_mm = 0;   // … and largest distance of a new boundary face's centroid
                                      // to the surface (mm)
+  double max_replaced_distance_mm = 0;  // … of the faces replaced, where the new ones are beyond
+                                        // the tolerance (they are no farther; mm)
 };
 
 struct TopologyOptions {
@@ -216,7 +218,7 @@ struct TopologyOptions {
   bool boundary_flips = true;  // boundary edge flips where the boundary is convex, and corner
                                // removals …
   const LevelSetSurface* surface = nullptr;  // … and the new faces follow this surface: within
-  double max_face_distance_mm = 0;           // this (mm)
+  double max_face_distance_mm = 0;           // this (mm), or no farther than the faces replaced
   double max_boundary_shift_mm = 0;  // without a surface: … moving it by at most this (mm)
 };
 
