@@ -48,7 +48,7 @@ struct Parameters {
   double epsilon_mm = 0;
   int max_iterations = 50;
   std::uint64_t seed = 1;
-  bool lattice_start = false;  // initial interior points on a lattice (else drawn from ρ)
+  bool lattice_start = true;  // initial interior points on a lattice (else drawn from ρ)
   // Stage 5: mesh generation, refined where mesh and segmentation disagree.
   int fidelity_rounds = 3;
   double fidelity_tolerance_mm = 0;

@@ -27,7 +27,7 @@ struct CvtOptions {
   double epsilon_mm = 0;             // stop when Σ displacement < ε (mm); 0 = auto (below)
   int max_iterations = 100;          // run_to_convergence stops here anyway
   std::uint64_t seed = 1;            // initial points (std::mt19937_64)
-  bool lattice_start = false;        // initial points on a BCC lattice (below), or drawn from ρ
+  bool lattice_start = true;         // initial points on a BCC lattice (below), or drawn from ρ
 };
 
 // Density weights are ρ quantised to multiples of 2^-kWeightBits, so centroid sums are exact
@@ -138,7 +138,7 @@ class LloydStepper {
   Grid fine_;
   Vec3 offset_{0, 0, 0};
   std::uint64_t seed_ = 1;
-  bool lattice_start_ = false;
+  bool lattice_start_ = true;
   int max_iterations_ = 100;
   std::array<int, 3> brick_{8, 8, 4};       // voxels per brick along i, j, k
   std::array<int, 3> brick_grid_{0, 0, 0};  // bricks along i, j, k
