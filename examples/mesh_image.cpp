@@ -29,11 +29,11 @@ int main(int argc, char** argv) {
     const PreprocessResult pre = preprocess(image, preprocess_options(p));
     // 2. Surface samples B: every boundary voxel within r·lfs of one (lfs capped at its median
     //    over the boundary, so flat parts still follow the voxels).
-    const SurfaceSamplingOptions sampling = surface_options(p, pre);
-    const SurfaceSamples surface = sample_surface(pre, sampling);
-    // 3. Interior samples I by Lloyd's algorithm, as far apart as the surface samples would be
-    //    without the cap (their spacing r·lfs, weighted by the area each one covers).
-    LloydStepper lloyd(pre, cvt_options(p, matching_interior_spacing_mm(pre, surface, sampling)));
+    //    With them, the interior spacing: the samples' spacing r·lfs without the cap, weighted
+    //    by the area each one covers.
+    const auto [surface, spacing] = sample_surface_and_spacing(pre, surface_options(p, pre));
+    // 3. Interior samples I by Lloyd's algorithm, that far apart.
+    LloydStepper lloyd(pre, cvt_options(p, spacing));
     lloyd.run_to_convergence();
     // 4. Drop the interior samples whose Voronoi region reaches the boundary.
     const ShallowResult interior =

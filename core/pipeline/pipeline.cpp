@@ -1,5 +1,7 @@
 #include "pipeline/pipeline.h"
 
+#include <tbb/parallel_invoke.h>
+
 #include <chrono>
 
 #include "base/errors.h"
@@ -44,14 +46,40 @@ SurfaceSamplingOptions surface_options(const Parameters& p, const PreprocessResu
   return o;
 }
 
-double matching_interior_spacing_mm(const PreprocessResult& pre, const SurfaceSamples& samples,
-                                    const SurfaceSamplingOptions& options) {
-  if (options.surface_lfs_max_mm <= 0 && options.chord_tolerance_mm <= 0)
-    return area_weighted_spacing_mm(samples, pre.lfs_mm, options);
+namespace {
+
+bool capped(const SurfaceSamplingOptions& options) {
+  return options.surface_lfs_max_mm > 0 || options.chord_tolerance_mm > 0;
+}
+
+// The area-weighted spacing of the samples `options` would give without their cap.
+double uncapped_spacing_mm(const PreprocessResult& pre, const SurfaceSamplingOptions& options) {
   SurfaceSamplingOptions plain = options;
   plain.surface_lfs_max_mm = plain.chord_tolerance_mm = 0;
   plain.project_to_surface = false;  // the count is what matters
   return area_weighted_spacing_mm(sample_surface(pre, plain), pre.lfs_mm, plain);
+}
+
+}  // namespace
+
+double matching_interior_spacing_mm(const PreprocessResult& pre, const SurfaceSamples& samples,
+                                    const SurfaceSamplingOptions& options) {
+  return capped(options) ? uncapped_spacing_mm(pre, options)
+                         : area_weighted_spacing_mm(samples, pre.lfs_mm, options);
+}
+
+SampledSurface sample_surface_and_spacing(const PreprocessResult& pre,
+                                          const SurfaceSamplingOptions& options,
+                                          const Progress& progress) {
+  SampledSurface out;
+  double uncapped = 0;
+  tbb::parallel_invoke([&] { out.samples = sample_surface(pre, options, progress); },
+                       [&] { if (capped(options)) uncapped = uncapped_spacing_mm(pre, options); });
+  if (!out.samples.voxels.empty())
+    out.interior_spacing_mm = capped(options)
+                                  ? uncapped
+                                  : area_weighted_spacing_mm(out.samples, pre.lfs_mm, options);
+  return out;
 }
 
 CvtOptions cvt_options(const Parameters& p, double default_spacing_mm) {
@@ -151,8 +179,7 @@ double Pipeline::budget_r() const {
   // that match them.
   SurfaceSamplingOptions probe = surface_options(parameters_, *preprocess_);
   probe.project_to_surface = false;
-  const SurfaceSamples s = sample_surface(*preprocess_, probe);
-  const double spacing = matching_interior_spacing_mm(*preprocess_, s, probe);
+  const auto [s, spacing] = sample_surface_and_spacing(*preprocess_, probe);
   Parameters p = parameters_;
   p.interior_points = 0;
   const CvtResolved r = resolve_cvt_options(cvt_options(p, spacing), preprocess_->object);
@@ -218,10 +245,9 @@ void Pipeline::run_stage(Stage s, const Progress& progress) {
     case Stage::surface: {
       if (parameters_.target_vertices > 0) budget_r_ = budget_r();
       const SurfaceSamplingOptions options = surface_options(sized_parameters(), *preprocess_);
-      surface_ = std::make_unique<SurfaceSamples>(sample_surface(*preprocess_, options, progress));
-      interior_spacing_mm_ = surface_->voxels.empty()
-                                 ? 0
-                                 : matching_interior_spacing_mm(*preprocess_, *surface_, options);
+      SampledSurface sampled = sample_surface_and_spacing(*preprocess_, options, progress);
+      surface_ = std::make_unique<SurfaceSamples>(std::move(sampled.samples));
+      interior_spacing_mm_ = sampled.interior_spacing_mm;
       break;
     }
     case Stage::cvt:

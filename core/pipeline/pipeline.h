@@ -38,6 +38,16 @@ SurfaceSamplingOptions surface_options(const Parameters& p, const PreprocessResu
 // sample and the area weights no longer hold, so the samples are drawn again without it).
 double matching_interior_spacing_mm(const PreprocessResult& pre, const SurfaceSamples& samples,
                                     const SurfaceSamplingOptions& options);
+// Stage 2: the samples `options` give and their matching_interior_spacing_mm (0 without
+// samples). Under a cap the spacing needs a second, uncapped draw; both draws are serial
+// greedy loops, so they run side by side.
+struct SampledSurface {
+  SurfaceSamples samples;
+  double interior_spacing_mm = 0;
+};
+SampledSurface sample_surface_and_spacing(const PreprocessResult& pre,
+                                          const SurfaceSamplingOptions& options,
+                                          const Progress& progress = {});
 CvtOptions cvt_options(const Parameters& p, double default_spacing_mm);
 MeshGenerationOptions mesh_options(const Parameters& p);
 FidelityRefinementOptions refinement_options(const Parameters& p);
