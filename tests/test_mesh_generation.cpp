@@ -98,6 +98,21 @@ TEST(MeshGeneration, HollowSphereKeepsItsCavity) {
   EXPECT_EQ(filled.quality.validity.boundary.components, 1u);
 }
 
+// Stage 5 counts its boundary's Euler characteristic from its cells (refinement rounds judge
+// topology by it): the mesh's own faces give the same, on a ball, a torus and a shell.
+TEST(MeshGeneration, BoundaryEulerCharacteristicFromTheCellsIsTheFaces) {
+  for (const Phantom& p : {sphere_phantom({3, -2, 5}, 8.0), torus_phantom({-4, 1, 2}, 9.0, 3.5),
+                           hollow_sphere_phantom({0, 0, 0}, 5.0, 10.0)}) {
+    Pipeline pipe;
+    pipe.set_image(std::make_shared<Image>(
+        rasterize(p, grid_around(p, {0.6, 0.7, 0.8}, rotation_matrix({1, 2, 2}, 0.5)))));
+    pipe.run_through(Stage::mesh);
+    const RefinedMesh& m = *pipe.mesh();
+    EXPECT_EQ(m.boundary_euler, compute_quality(m.mesh).validity.boundary.euler_characteristic)
+        << p.name;
+  }
+}
+
 TEST(MeshGeneration, SameInputSameMesh) {
   const Phantom p = two_spheres_phantom({0, 0, 0}, 5.0, 1.5);
   const PhantomMesh a = mesh_phantom(p), b = mesh_phantom(p);
@@ -147,6 +162,8 @@ TEST(MeshGeneration, PeelingAloneRepairsTheLiversPinches) {
   // specks) or, once it peeled, from the faces: the same as the mesh's own faces say.
   EXPECT_GT(rounds.removed_small_components, 0u);
   EXPECT_TRUE(rounds.on_boundary == boundary_flags(rounds.mesh));
+  EXPECT_EQ(rounds.boundary_euler,
+            compute_quality(rounds.mesh).validity.boundary.euler_characteristic);
   generation.max_pinch_passes = 0;
   const RefinedMesh peeled = mesh();
   EXPECT_TRUE(peeled.pinched_samples.empty());
@@ -155,6 +172,7 @@ TEST(MeshGeneration, PeelingAloneRepairsTheLiversPinches) {
   EXPECT_TRUE(peeled.on_boundary == boundary_flags(peeled.mesh));
   const QualityReport q = compute_quality(peeled.mesh);
   expect_valid(q);
+  EXPECT_EQ(peeled.boundary_euler, q.validity.boundary.euler_characteristic);
   EXPECT_EQ(q.validity.boundary.components,
             compute_quality(rounds.mesh).validity.boundary.components);
 }

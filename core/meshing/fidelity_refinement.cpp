@@ -226,7 +226,7 @@ RefinedMesh build_refined_mesh(const PreprocessResult& pre, const std::vector<Ve
   if (options.max_rounds > 0) fix = check(result, b, i, b_id, i_id, deep);
   for (int round = 0; round < options.max_rounds; ++round) {
     FidelityRefinementRound r{fix.disagreeing_voxels, fix.deep_boundary.size(),
-                              fix.samples.size(), 0, false};
+                              fix.samples.size(), 0, result.boundary_euler, false};
     // After the first round, outside points alone are not worth a round: the previous round
     // applied them already, and on the liver such a round was rejected at ~0.5 s.
     if (fix.samples.empty() && deep.empty() && (round > 0 || fix.outside_points.empty())) {
@@ -281,7 +281,8 @@ RefinedMesh build_refined_mesh(const PreprocessResult& pre, const std::vector<Ve
   // Out of rounds after a kept one: the last mesh's check closes the record, with no round of
   // its own. (A loop that stopped early recorded that check already.)
   if (!rounds.empty() && rounds.back().accepted)
-    rounds.push_back({fix.disagreeing_voxels, fix.deep_boundary.size(), 0, 0, false});
+    rounds.push_back({fix.disagreeing_voxels, fix.deep_boundary.size(), 0, 0,
+                      result.boundary_euler, false});
   RefinedMesh out;
   static_cast<MeshGenerationResult&>(out) = std::move(result);
   out.added_surface_samples = std::move(added_all);

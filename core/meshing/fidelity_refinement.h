@@ -21,6 +21,7 @@ struct FidelityRefinementRound {
   std::size_t added_samples = 0;       // surface samples added on the object boundary
   std::size_t dropped_interior = 0;    // interior samples removed: next to the new ones, or
                                        // deep on the boundary
+  long long boundary_euler = 0;  // Euler characteristic of the boundary of the mesh checked
   bool accepted = false;  // its round's mesh had fewer deep samples, or as many and fewer
                           // disagreeing voxels; false: dropped, or no round made (the last
                           // check, when nothing was left to fix or no round was left)

@@ -856,6 +856,7 @@ MeshGenerationResult DelaunayMesher::mesh() {
   struct Chunk {
     std::vector<std::pair<Tet, Delaunay::Cell_handle>> kept;
     std::vector<std::array<Vec3, 4>> outside, flat;
+    std::vector<std::uint8_t> boundary_faces;  // per kept cell: its faces with no kept cell behind
   };
   const std::vector<Delaunay::Cell_handle> all_cells = finite_cells(dt);
   constexpr std::size_t kChunk = 8192;
@@ -871,10 +872,12 @@ MeshGenerationResult DelaunayMesher::mesh() {
         t[k] = c->vertex(k)->info();
         corners[k] = to_vec(c->vertex(k)->point());
       }
+      std::uint8_t faces = 0;
       if (!peel && c->info().fate == kept_cell)
         for (int k = 0; k < 4; ++k) {
           const Delaunay::Cell_handle nb_cell = c->neighbor(k);
           if (!dt.is_infinite(nb_cell) && nb_cell->info().fate == kept_cell) continue;
+          ++faces;
           for (int j = 0; j < 4; ++j)  // every writer stores the same 1
             if (j != k)
               std::atomic_ref(sample_on_boundary[std::size_t(t[j])])
@@ -882,18 +885,25 @@ MeshGenerationResult DelaunayMesher::mesh() {
         }
       if (c->info().fate == outside_cell) chunk.outside.push_back(corners);
       else if (c->info().fate == flat_cell) chunk.flat.push_back(corners);
-      else chunk.kept.push_back({canonical(t), c});
+      else {
+        chunk.kept.push_back({canonical(t), c});
+        chunk.boundary_faces.push_back(faces);
+      }
     }
   });
   std::size_t kept_count = 0;
   for (const Chunk& chunk : chunks) kept_count += chunk.kept.size();
   kept.reserve(kept_count);
+  std::vector<std::uint8_t> boundary_faces;  // per kept tet (without peeling: in kept's order)
+  boundary_faces.reserve(peel ? 0 : kept_count);
   for (Chunk& chunk : chunks) {
     out.removed_by_centroid += chunk.outside.size();
     out.removed_outside.insert(out.removed_outside.end(), chunk.outside.begin(),
                                chunk.outside.end());
     out.removed_by_repair.insert(out.removed_by_repair.end(), chunk.flat.begin(), chunk.flat.end());
     kept.insert(kept.end(), chunk.kept.begin(), chunk.kept.end());
+    boundary_faces.insert(boundary_faces.end(), chunk.boundary_faces.begin(),
+                          chunk.boundary_faces.end());
     chunk = Chunk();
   }
   // CGAL's vertex removal orders its work by handle address, which varies from run to run;
@@ -921,8 +931,13 @@ MeshGenerationResult DelaunayMesher::mesh() {
         points, tets, options.min_component_fraction, &out.removed_by_repair);
   } else {
     out.repair.manifold = options.repair_manifold;  // what a peeling pass would have found
+    const std::vector<Tet> all = tets;
     out.removed_small_components = remove_small_tet_components(
         points, tets, group, options.min_component_fraction, &out.removed_by_repair);
+    // The removed groups' boundary faces go with them (the kept tets keep their order).
+    for (std::size_t t = 0, u = 0; t < all.size(); ++t)
+      if (u < tets.size() && tets[u] == all[t]) ++u;
+      else boundary_faces[t] = 0;
   }
 
   // Keep only referenced samples, in input order (B first, then I), for a deterministic mesh.
@@ -943,11 +958,16 @@ MeshGenerationResult DelaunayMesher::mesh() {
   for (const Tet& t : tets)
     out.mesh.tets.push_back(canonical({new_index[t[0]], new_index[t[1]], new_index[t[2]], new_index[t[3]]}));
   tbb::parallel_sort(out.mesh.tets.begin(), out.mesh.tets.end());  // distinct tets: a total order
+  long long faces = std::accumulate(boundary_faces.begin(), boundary_faces.end(), 0LL);
   if (peel) {
+    const std::vector<Triangle> boundary = boundary_triangles(out.mesh);
     out.on_boundary.assign(out.mesh.vertices.size(), 0);
-    for (const Triangle& f : boundary_triangles(out.mesh))
+    for (const Triangle& f : boundary)
       for (std::int32_t v : f) out.on_boundary[std::size_t(v)] = 1;
+    faces = (long long)boundary.size();
   }
+  // The boundary is closed (every edge in two faces): its Euler characteristic is V − F/2.
+  out.boundary_euler = std::count(out.on_boundary.begin(), out.on_boundary.end(), 1) - faces / 2;
   progress("mesh", 1.0);
   return out;
 }

@@ -73,6 +73,7 @@ struct MeshGenerationResult {
   std::vector<int> vertex_source;         // for each mesh vertex: index into B, or |B| + index
                                           // in I (the samples the mesh was built from)
   std::vector<std::uint8_t> on_boundary;  // for each mesh vertex: 1 if on the boundary surface
+  long long boundary_euler = 0;  // Euler characteristic (V − E + F) of the boundary surface
                                           // (from the cells' adjacency: no face sort)
 };
 

@@ -119,6 +119,7 @@ nlohmann::json run_report(const Pipeline& pipe) {
                         {"deep_boundary_samples", r.deep_boundary_samples},
                         {"added_samples", r.added_samples},
                         {"dropped_interior", r.dropped_interior},
+                        {"boundary_euler", r.boundary_euler},
                         {"accepted", r.accepted}});
     j["refinement"] = rounds;
   }
