@@ -62,12 +62,6 @@ double uncapped_spacing_mm(const PreprocessResult& pre, const SurfaceSamplingOpt
 
 }  // namespace
 
-double matching_interior_spacing_mm(const PreprocessResult& pre, const SurfaceSamples& samples,
-                                    const SurfaceSamplingOptions& options) {
-  return capped(options) ? uncapped_spacing_mm(pre, options)
-                         : area_weighted_spacing_mm(samples, pre.lfs_mm, options);
-}
-
 SampledSurface sample_surface_and_spacing(const PreprocessResult& pre,
                                           const SurfaceSamplingOptions& options,
                                           const Progress& progress) {

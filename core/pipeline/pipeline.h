@@ -32,15 +32,12 @@ ReadOptions image_read_options(const Parameters& p);
 PreprocessOptions preprocess_options(const Parameters& p);
 // Stage 2's options need stage 1's result: the automatic lfs cap is its median boundary lfs.
 SurfaceSamplingOptions surface_options(const Parameters& p, const PreprocessResult& pre);
-// The interior spacing that matches surface samples taken with `options`: their
-// area_weighted_spacing_mm, without the cap on their radius (lfs cap, chord tolerance), which
-// adds surface samples only (where capped radii fall below the voxel, every boundary voxel is a
-// sample and the area weights no longer hold, so the samples are drawn again without it).
-double matching_interior_spacing_mm(const PreprocessResult& pre, const SurfaceSamples& samples,
-                                    const SurfaceSamplingOptions& options);
-// Stage 2: the samples `options` give and their matching_interior_spacing_mm (0 without
-// samples). Under a cap the spacing needs a second, uncapped draw; both draws are serial
-// greedy loops, so they run side by side.
+// Stage 2: the samples `options` give, and the interior spacing that matches them (0 without
+// samples): their area_weighted_spacing_mm without the cap on their radius (lfs cap, chord
+// tolerance), which adds surface samples only. Under a cap the samples are drawn a second time
+// without it (where capped radii fall below the voxel, every boundary voxel is a sample and
+// the area weights no longer hold); both draws are serial greedy loops, so they run side by
+// side.
 struct SampledSurface {
   SurfaceSamples samples;
   double interior_spacing_mm = 0;
@@ -122,7 +119,7 @@ class Pipeline {
   // Counts every change of `s`'s result (a run, a Lloyd step, an optimisation pass, a reset),
   // so a viewer can tell a new result without comparing addresses.
   std::uint64_t generation(Stage s) const { return generation_[int(s)]; }
-  // Default interior spacing: matching_interior_spacing_mm of stage 2's samples (0 before).
+  // Default interior spacing: sample_surface_and_spacing's for stage 2's samples (0 before).
   double default_interior_spacing_mm() const { return interior_spacing_mm_; }
   // The parameters as the stages use them: with --vertices (target_vertices), the r and the
   // interior points it chose, once stages 2 and 3 have resolved them.
