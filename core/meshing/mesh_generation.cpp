@@ -378,7 +378,9 @@ void poles_of(const SampleDelaunay& dt, SampleDelaunay::Vertex_handle v, const P
               std::vector<SampleDelaunay::Cell_handle>& cells, std::vector<Vec3>& poles) {
   const Vec3 s = to_vec(v->point());
   cells.clear();
-  dt.incident_cells(v, std::back_inserter(cells));
+  // The plain incident_cells marks the cells it visits: a race when threads walk one
+  // triangulation (the poles of all samples are found in parallel).
+  dt.incident_cells_threadsafe(v, std::back_inserter(cells));
   Vec3 outward{0, 0, 0};
   bool on_hull = false;
   double best = -1;
