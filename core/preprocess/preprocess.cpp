@@ -1,8 +1,10 @@
 #include "preprocess/preprocess.h"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <limits>
 
 #include <tbb/parallel_for.h>
@@ -46,7 +48,7 @@ namespace {
 
 // Nearest voxel of the other phase, for both phases, in one volume: the inner transform
 // (features = background) for object voxels, the outer one for background. The distances are
-// not kept: the nearest voxel gives them (distance_to_opposite_mm). Both transforms run in
+// not kept: the nearest voxel gives them. Both transforms run in
 // `work`, whose distance buffer is then free for the lfs transform: stage 1 first-touches
 // one distance volume instead of three.
 Volume<std::int32_t> nearest_of_other_phase(const Mask& object, FeatureTransform& work,
@@ -85,14 +87,42 @@ class StepTimer {
 
 }  // namespace
 
-double distance_to_opposite_mm(const PreprocessResult& pre, std::size_t v) {
-  const std::int32_t u = pre.nearest_opposite.data[v];
-  if (u < 0) return std::numeric_limits<double>::infinity();
+namespace {
+
+constexpr std::uint16_t kNoOpposite = 0xffff;
+
+// Offsets −reach..reach per axis in 5 bits each.
+std::uint16_t pack_offset(const std::array<int, 3>& a, const std::array<int, 3>& b) {
+  std::uint16_t packed = 0;
+  for (int axis = 0; axis < 3; ++axis) {
+    const int d = b[axis] - a[axis];
+    if (std::abs(d) > kNearestOppositeReach) return kNoOpposite;
+    packed |= std::uint16_t((d + kNearestOppositeReach) << (5 * axis));
+  }
+  return packed;
+}
+
+Volume<std::uint16_t> packed_offsets(const Volume<std::int32_t>& nearest) {
+  static_assert(2 * kNearestOppositeReach < 31, "five bits per axis");
+  const Grid& g = nearest.grid;
+  Volume<std::uint16_t> out(g, kNoOpposite);
+  tbb::parallel_for(std::size_t(0), nearest.size(), [&](std::size_t v) {
+    const std::int32_t u = nearest.data[v];
+    if (u >= 0) out.data[v] = pack_offset(g.ijk(v), g.ijk(std::size_t(u)));
+  });
+  return out;
+}
+
+}  // namespace
+
+std::int64_t nearest_opposite(const PreprocessResult& pre, std::size_t v) {
+  const std::uint16_t packed = pre.nearest_opposite.data[v];
+  if (packed == kNoOpposite) return -1;
   const Grid& g = pre.object.grid;
-  const auto a = g.ijk(v), b = g.ijk(std::size_t(u));
-  const double dx = (a[0] - b[0]) * g.spacing.x, dy = (a[1] - b[1]) * g.spacing.y,
-               dz = (a[2] - b[2]) * g.spacing.z;
-  return std::sqrt(dx * dx + dy * dy + dz * dz);
+  std::array<int, 3> c = g.ijk(v);
+  for (int axis = 0; axis < 3; ++axis)
+    c[axis] += int((packed >> (5 * axis)) & 31) - kNearestOppositeReach;
+  return std::int64_t(g.linear(c[0], c[1], c[2]));
 }
 
 PreprocessResult preprocess(const Image& image, const PreprocessOptions& options,
@@ -108,8 +138,8 @@ PreprocessResult preprocess(std::shared_ptr<const Image> image, const Preprocess
   {
     StepTimer t(r.steps, progress, "select object");
     r.object = select_object(*image, options.selection);
-    // Stage 1 keeps ~15 bytes per crop voxel (mask, indicator, feature transform, medial
-    // axis, lfs) and needs ~8 more while a feature transform runs.
+    // Stage 1 keeps ~12 bytes per crop voxel (mask, indicator, packed feature transform,
+    // medial axis, lfs) and needs up to ~11 more while the transforms run.
     require_memory(r.object.size() * 23, options.max_bytes,
                    image->source + ": the object's crop (" + std::to_string(r.object.size()) +
                        " voxels)");
@@ -125,9 +155,10 @@ PreprocessResult preprocess(std::shared_ptr<const Image> image, const Preprocess
   }
   const Grid& g = r.object.grid;
   FeatureTransform work;
+  Volume<std::int32_t> nearest;
   {
     StepTimer t(r.steps, progress, "distance transform");
-    r.nearest_opposite = nearest_of_other_phase(r.object, work, progress);
+    nearest = nearest_of_other_phase(r.object, work, progress);
   }
   {
     StepTimer t(r.steps, progress, "medial axis");
@@ -136,7 +167,9 @@ PreprocessResult preprocess(std::shared_ptr<const Image> image, const Preprocess
     MedialAxisOptions medial = options.medial_axis;
     medial.min_separation_mm = r.medial_min_separation_mm =
         effective_min_separation_mm(options.medial_axis, r.sizing_unit_mm);
-    r.medial_axis = compute_medial_axis(r.object, r.nearest_opposite, medial, progress);
+    r.medial_axis = compute_medial_axis(r.object, nearest, medial, progress);
+    r.nearest_opposite = packed_offsets(nearest);
+    nearest = {};
   }
   {
     StepTimer t(r.steps, progress, "local feature size");

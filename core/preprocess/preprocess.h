@@ -33,8 +33,8 @@ struct StepTime {
 struct PreprocessResult {
   Mask object;                            // cropped + padded binary object (1 inside)
   Volume<float> indicator;                // smoothed object; 0.5 level = sub-voxel boundary
-  Volume<std::int32_t> nearest_opposite;  // linear index of the nearest voxel of the other
-                                          // phase (feature transform); distance_to_opposite_mm
+  Volume<std::uint16_t> nearest_opposite;  // the nearest voxel of the other phase (feature
+                                           // transform) as a packed offset: nearest_opposite()
   Mask medial_axis;                       // 1 inner, 2 outer medial axis
   Volume<float> lfs_mm;                   // clamped local feature size
   std::vector<std::int32_t> boundary;     // F: object voxels with a background 6-neighbour
@@ -53,9 +53,13 @@ double effective_smoothing_sigma_mm(double sigma_mm, const Grid& grid);
 // having one).
 std::vector<std::int32_t> boundary_voxels(const Mask& object);
 
-// Distance from voxel v to the nearest voxel of the other phase (mm), from the feature
-// transform (+inf when the crop holds only one phase).
-double distance_to_opposite_mm(const PreprocessResult& pre, std::size_t v);
+// The nearest voxel of the other phase is kept as its offset from v, 5 bits per axis, half the
+// memory of a linear index: stage 5 asks only near the boundary, where samples can go.
+constexpr int kNearestOppositeReach = 15;  // voxels along each axis
+
+// The linear index of the nearest voxel of the other phase than voxel v's, or −1 when it is
+// more than kNearestOppositeReach voxels away along an axis (or the crop has one phase).
+std::int64_t nearest_opposite(const PreprocessResult& pre, std::size_t v);
 
 PreprocessResult preprocess(const Image& image, const PreprocessOptions& options,
                             const Progress& progress = {});
