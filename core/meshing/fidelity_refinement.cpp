@@ -38,20 +38,21 @@ std::vector<Vec3> keep_spaced(const std::vector<Vec3>& candidates,
   return out;
 }
 
-// The voxel offsets within a radius, nearest first (ties in scan order). Only the few voxels
-// where mesh and object disagree search around themselves, and most stop at the first
-// offsets, so this beats a distance or feature transform of the whole grid.
-class Ball {
+// Whether a voxel of the mesh boundary (one whose state differs from a 6-neighbour's) lies
+// within a radius of a voxel. Only the few voxels where mesh and object disagree ask, so a
+// search of the ball around each (nearest offsets first; most stop at once) beats a distance
+// transform of the whole grid.
+class MeshBoundaryProbe {
  public:
-  Ball(const Vec3& spacing, double radius_mm) {
+  MeshBoundaryProbe(const Mask& inside, double radius_mm) : inside_(inside) {
+    const Vec3& s = inside.grid.spacing;
     int reach[3];
-    for (int a = 0; a < 3; ++a) reach[a] = int(std::floor(radius_mm / spacing[a]));
+    for (int a = 0; a < 3; ++a) reach[a] = int(std::floor(radius_mm / s[a]));
     std::vector<std::pair<double, std::array<int, 3>>> ball;
     for (int dk = -reach[2]; dk <= reach[2]; ++dk)
       for (int dj = -reach[1]; dj <= reach[1]; ++dj)
         for (int di = -reach[0]; di <= reach[0]; ++di) {
-          const double d2 = di * di * spacing.x * spacing.x + dj * dj * spacing.y * spacing.y +
-                            dk * dk * spacing.z * spacing.z;
+          const double d2 = di * di * s.x * s.x + dj * dj * s.y * s.y + dk * dk * s.z * s.z;
           if (d2 <= radius_mm * radius_mm) ball.push_back({d2, {di, dj, dk}});
         }
     std::stable_sort(ball.begin(), ball.end(),
@@ -59,40 +60,27 @@ class Ball {
     for (const auto& [d2, offset] : ball) offsets_.push_back(offset);
   }
 
-  // The linear index of the nearest voxel of the grid around v where hit(i, j, k) holds, or −1.
-  template <class Hit>
-  std::int64_t nearest(const Grid& grid, const std::array<int, 3>& v, Hit hit) const {
-    for (const auto& o : offsets_) {
-      const int i = v[0] + o[0], j = v[1] + o[1], k = v[2] + o[2];
-      if (grid.contains(i, j, k) && hit(i, j, k)) return std::int64_t(grid.linear(i, j, k));
-    }
-    return -1;
+  bool near(const std::array<int, 3>& v) const {
+    for (const auto& o : offsets_)
+      if (on_boundary(v[0] + o[0], v[1] + o[1], v[2] + o[2])) return true;
+    return false;
   }
 
  private:
-  std::vector<std::array<int, 3>> offsets_;
-};
-
-// Whether a voxel of the other phase than v's lies within the ball around v.
-bool opposite_within(const Mask& mask, const Ball& ball, std::size_t v) {
-  const unsigned char phase = mask.data[v];
-  return ball.nearest(mask.grid, mask.grid.ijk(v),
-                      [&](int i, int j, int k) { return mask.at(i, j, k) != phase; }) >= 0;
-}
-
-// Whether a voxel of the mask's boundary (one whose state differs from a 6-neighbour's) lies
-// within the ball around v.
-bool near_boundary(const Mask& mask, const Ball& ball, const std::array<int, 3>& v) {
-  const Grid& grid = mask.grid;
-  return ball.nearest(grid, v, [&](int i, int j, int k) {
-    const unsigned char s = mask.at(i, j, k);
+  bool on_boundary(int i, int j, int k) const {
+    const Grid& grid = inside_.grid;
+    if (!grid.contains(i, j, k)) return false;
+    const unsigned char s = inside_.at(i, j, k);
     const int n[6][3] = {{i - 1, j, k}, {i + 1, j, k}, {i, j - 1, k},
                          {i, j + 1, k}, {i, j, k - 1}, {i, j, k + 1}};
     for (const auto& q : n)
-      if (grid.contains(q[0], q[1], q[2]) && mask.at(q[0], q[1], q[2]) != s) return true;
+      if (grid.contains(q[0], q[1], q[2]) && inside_.at(q[0], q[1], q[2]) != s) return true;
     return false;
-  }) >= 0;
-}
+  }
+
+  const Mask& inside_;
+  std::vector<std::array<int, 3>> offsets_;
+};
 
 // The voxels where two masks differ, in index order (scanned in parallel, in chunks).
 std::vector<std::size_t> differing_voxels(const Mask& a, const Mask& b, const Progress& progress) {
@@ -127,19 +115,17 @@ FidelityFix find_fidelity_fix(const Mask& mesh_inside, const PreprocessResult& p
   const Mask& object = pre.object;
   const Grid& grid = object.grid;
   FidelityFix fix;
-  const Ball within_tolerance(grid.spacing, tolerance_mm);
   // A new surface sample where the object boundary is nearest to voxel v: between v and its
-  // nearest opposite voxel, on the indicator's 0.5 level.
+  // nearest opposite voxel, on the indicator's 0.5 level. For a pair farther apart than
+  // `pair_reach`, the midpoint lies beyond the projection's 1.5 voxels from that level.
+  const double pair_reach = 2 * (1.5 + 1.0) * largest(grid.spacing);
   auto add_sample_near = [&](std::size_t v) {
-    const std::int64_t u = nearest_opposite(pre, v);
+    const std::int64_t u = nearest_opposite(pre, v, pair_reach);
     if (u < 0) return;
     const auto a = grid.ijk(v), b = grid.ijk(std::size_t(u));
     Vec3 index{0.5 * (a[0] + b[0]), 0.5 * (a[1] + b[1]), 0.5 * (a[2] + b[2])};
     if (!project_to_level_set(pre.indicator, 0.5f, index, 1.5)) return;
     fix.samples.push_back(grid.index_to_world(index));  // spaced out before returning
-  };
-  auto near_object_boundary = [&](std::size_t v) {
-    return opposite_within(object, within_tolerance, v);
   };
   for (std::size_t e = 0; e < exposed_interior.size(); ++e) {
     const Vec3 index = grid.world_to_index(exposed_interior[e]);
@@ -147,7 +133,7 @@ FidelityFix find_fidelity_fix(const Mask& mesh_inside, const PreprocessResult& p
     for (int a = 0; a < 3; ++a)
       ijk[a] = std::clamp(int(std::lround(index[a])), 0, grid.dims[a] - 1);
     const std::size_t v = grid.linear(ijk[0], ijk[1], ijk[2]);
-    if (!object.data[v] || near_object_boundary(v)) continue;
+    if (!object.data[v] || nearest_opposite(pre, v, tolerance_mm) >= 0) continue;
     fix.deep_boundary.push_back(e);
     add_sample_near(v);
   }
@@ -156,12 +142,14 @@ FidelityFix find_fidelity_fix(const Mask& mesh_inside, const PreprocessResult& p
     fix.samples = keep_spaced(fix.samples, existing, spacing_mm);
     return fix;
   }
+  // How far each voxel is from the object boundary we know already; from the mesh boundary,
+  // the probe tells whether it is within the tolerance.
+  const MeshBoundaryProbe mesh_boundary(mesh_inside, tolerance_mm);
   for (const std::size_t v : differing) {
     // Disagreeing voxel: the two boundaries are far apart near it when it lies deep on either
     // side (a pit or a bulge: far from the object boundary; a bridged channel: far from the
     // mesh boundary).
-    if (near_object_boundary(v) && near_boundary(mesh_inside, within_tolerance, grid.ijk(v)))
-      continue;
+    if (nearest_opposite(pre, v, tolerance_mm) >= 0 && mesh_boundary.near(grid.ijk(v))) continue;
     ++fix.disagreeing_voxels;
     if (mesh_inside.data[v] && pre.indicator.data[v] < 0.5f)
       fix.outside_points.push_back(grid.voxel_to_world(v));

@@ -5,7 +5,6 @@
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
-#include <limits>
 
 #include <tbb/parallel_for.h>
 
@@ -47,9 +46,8 @@ std::vector<std::int32_t> boundary_voxels(const Mask& object) {
 namespace {
 
 // Nearest voxel of the other phase, for both phases, in one volume: the inner transform
-// (features = background) for object voxels, the outer one for background. The distances are
-// not kept: the nearest voxel gives them. Both transforms run in
-// `work`, whose distance buffer is then free for the lfs transform: stage 1 first-touches
+// (features = background) for object voxels, the outer one for background. Both transforms run
+// in `work`, whose distance buffer is then free for the lfs transform: stage 1 first-touches
 // one distance volume instead of three.
 Volume<std::int32_t> nearest_of_other_phase(const Mask& object, FeatureTransform& work,
                                             const Progress& progress) {
@@ -93,6 +91,7 @@ constexpr std::uint16_t kNoOpposite = 0xffff;
 
 // Offsets −reach..reach per axis in 5 bits each.
 std::uint16_t pack_offset(const std::array<int, 3>& a, const std::array<int, 3>& b) {
+  static_assert(2 * kNearestOppositeReach < 31, "five bits per axis");
   std::uint16_t packed = 0;
   for (int axis = 0; axis < 3; ++axis) {
     const int d = b[axis] - a[axis];
@@ -103,7 +102,6 @@ std::uint16_t pack_offset(const std::array<int, 3>& a, const std::array<int, 3>&
 }
 
 Volume<std::uint16_t> packed_offsets(const Volume<std::int32_t>& nearest) {
-  static_assert(2 * kNearestOppositeReach < 31, "five bits per axis");
   const Grid& g = nearest.grid;
   Volume<std::uint16_t> out(g, kNoOpposite);
   tbb::parallel_for(std::size_t(0), nearest.size(), [&](std::size_t v) {
@@ -113,16 +111,41 @@ Volume<std::uint16_t> packed_offsets(const Volume<std::int32_t>& nearest) {
   return out;
 }
 
+double squared_mm(const Grid& g, const std::array<int, 3>& d) {
+  return d[0] * d[0] * g.spacing.x * g.spacing.x + d[1] * d[1] * g.spacing.y * g.spacing.y +
+         d[2] * d[2] * g.spacing.z * g.spacing.z;
+}
+
 }  // namespace
 
-std::int64_t nearest_opposite(const PreprocessResult& pre, std::size_t v) {
+std::int64_t nearest_opposite(const PreprocessResult& pre, std::size_t v, double within_mm) {
+  const Mask& m = pre.object;
+  const Grid& g = m.grid;
+  const std::array<int, 3> c = g.ijk(v);
   const std::uint16_t packed = pre.nearest_opposite.data[v];
-  if (packed == kNoOpposite) return -1;
-  const Grid& g = pre.object.grid;
-  std::array<int, 3> c = g.ijk(v);
-  for (int axis = 0; axis < 3; ++axis)
-    c[axis] += int((packed >> (5 * axis)) & 31) - kNearestOppositeReach;
-  return std::int64_t(g.linear(c[0], c[1], c[2]));
+  if (packed != kNoOpposite) {
+    std::array<int, 3> d;
+    for (int axis = 0; axis < 3; ++axis)
+      d[axis] = int((packed >> (5 * axis)) & 31) - kNearestOppositeReach;
+    if (squared_mm(g, d) > within_mm * within_mm) return -1;
+    return std::int64_t(g.linear(c[0] + d[0], c[1] + d[1], c[2] + d[2]));
+  }
+  // Beyond the kept offsets: all of them are farther than reach × the finest spacing.
+  const double finest = std::min({g.spacing.x, g.spacing.y, g.spacing.z});
+  if (within_mm <= kNearestOppositeReach * finest) return -1;
+  int reach[3];
+  for (int a = 0; a < 3; ++a) reach[a] = int(std::floor(within_mm / g.spacing[a]));
+  double best = within_mm * within_mm;
+  std::int64_t nearest = -1;
+  for (int dk = -reach[2]; dk <= reach[2]; ++dk)
+    for (int dj = -reach[1]; dj <= reach[1]; ++dj)
+      for (int di = -reach[0]; di <= reach[0]; ++di) {
+        const int i = c[0] + di, j = c[1] + dj, k = c[2] + dk;
+        if (!g.contains(i, j, k) || m.at(i, j, k) == m.data[v]) continue;
+        const double d2 = squared_mm(g, {di, dj, dk});
+        if (d2 < best || (d2 == best && nearest < 0)) best = d2, nearest = g.linear(i, j, k);
+      }
+  return nearest;
 }
 
 PreprocessResult preprocess(const Image& image, const PreprocessOptions& options,

@@ -53,13 +53,12 @@ double effective_smoothing_sigma_mm(double sigma_mm, const Grid& grid);
 // having one).
 std::vector<std::int32_t> boundary_voxels(const Mask& object);
 
-// The nearest voxel of the other phase is kept as its offset from v, 5 bits per axis, half the
-// memory of a linear index: stage 5 asks only near the boundary, where samples can go.
-constexpr int kNearestOppositeReach = 15;  // voxels along each axis
-
-// The linear index of the nearest voxel of the other phase than voxel v's, or −1 when it is
-// more than kNearestOppositeReach voxels away along an axis (or the crop has one phase).
-std::int64_t nearest_opposite(const PreprocessResult& pre, std::size_t v);
+// The linear index of a nearest voxel of the other phase than voxel v's, if it lies within
+// `within_mm` of v; else −1. Stage 1 keeps it as an offset of at most kNearestOppositeReach
+// voxels along each axis (half the memory of an index): the few nearest voxels beyond that
+// but within `within_mm`, in strongly anisotropic grids, are searched for.
+constexpr int kNearestOppositeReach = 15;
+std::int64_t nearest_opposite(const PreprocessResult& pre, std::size_t v, double within_mm);
 
 PreprocessResult preprocess(const Image& image, const PreprocessOptions& options,
                             const Progress& progress = {});
