@@ -7,6 +7,8 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
+#include <tuple>
 #include <utility>
 
 #include "evaluate/fidelity.h"
@@ -300,7 +302,7 @@ TEST(FidelityRefinement, NarrowSlotOverSeeds) {
   // it helps.
   const Image image = slotted_image();
   double plain_sum = 0, refined_sum = 0;
-  int improved = 0;
+  int improved = 0, earlier_returned = 0;
   for (std::uint64_t seed = 1; seed <= 8; ++seed) {
     SCOPED_TRACE(::testing::Message() << "seed " << seed);
     const SlotRun plain = run(image, 0, seed), refined = run(image, 3, seed);
@@ -318,6 +320,32 @@ TEST(FidelityRefinement, NarrowSlotOverSeeds) {
       EXPECT_LT(std::pair(rounds[k].deep_boundary_samples, rounds[k].disagreeing_voxels),
                 std::pair(rounds[k - 1].deep_boundary_samples, rounds[k - 1].disagreeing_voxels));
     }
+    // One checked mesh is returned: the nearest to the object's topology, then with the fewest
+    // pits, then disagreeing voxels; what was added and dropped is what led to it.
+    const long long object_euler = refined.fidelity.object_surface_euler;
+    const auto rank = [&](const FidelityRefinementRound& r) {
+      return std::tuple(std::llabs(r.boundary_euler - object_euler), r.deep_boundary_samples,
+                        r.disagreeing_voxels);
+    };
+    std::size_t returned = rounds.size(), added = 0, dropped = 0;
+    for (std::size_t k = 0; k < rounds.size(); ++k)
+      if (rounds[k].returned) {
+        EXPECT_EQ(returned, rounds.size()) << "a second returned check";
+        returned = k;
+      }
+    ASSERT_LT(returned, rounds.size());
+    for (std::size_t k = 0; k < rounds.size(); ++k) {
+      EXPECT_LE(rank(rounds[returned]), rank(rounds[k])) << "check " << k;
+      if (k < returned) {
+        added += rounds[k].added_samples;
+        dropped += rounds[k].dropped_interior;
+      }
+    }
+    EXPECT_EQ(refined.refined.boundary_euler, rounds[returned].boundary_euler);
+    EXPECT_EQ(refined.quality.validity.boundary.euler_characteristic, rounds[returned].boundary_euler);
+    EXPECT_EQ(refined.refined.added_surface_samples.size(), added);
+    EXPECT_EQ(refined.refined.dropped_interior_samples.size(), dropped);
+    if (returned + 1 < rounds.size()) ++earlier_returned;
     // Without a kept round nothing was added, and the mesh is the first mesh.
     if (!rounds[0].accepted) {
       EXPECT_TRUE(refined.refined.added_surface_samples.empty());
@@ -330,6 +358,9 @@ TEST(FidelityRefinement, NarrowSlotOverSeeds) {
   // Over the seeds, closer to the object: the Hausdorff distances' sum drops by 5 % or more.
   EXPECT_LT(refined_sum, 0.95 * plain_sum);
   EXPECT_GE(improved, 1);
+  // Some seed's last round bridges the slot where an earlier mesh did not: the rule above
+  // must have been exercised.
+  EXPECT_GE(earlier_returned, 1);
 }
 
 TEST(FidelityRefinement, SameInputSameMesh) {

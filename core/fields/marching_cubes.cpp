@@ -15,6 +15,7 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <functional>
 #include <numeric>
 #include <utility>
 
@@ -126,6 +127,41 @@ const CaseTable& case_table() {
   return table;
 }
 
+// The box padded by one voxel of zeros all around; cube (i, j, k) has its lowest corner at
+// padded voxel (i, j, k), so there are box size + 1 cubes per axis.
+std::array<int, 3> cube_counts(const Box& box) {
+  std::array<int, 3> cubes;
+  for (int a = 0; a < 3; ++a) cubes[a] = box.hi[a] - box.lo[a] + 1;
+  return cubes;
+}
+
+// Calls visit(i, c) for each cube (i, j, k) of a row whose case c (corner bit b = (b & 1,
+// b >> 1 & 1, b >> 2) inside) is neither empty nor full. rows: scratch of 4 × (cubes[0] + 1).
+template <class Visit>
+void visit_cube_row(const Mask& mask, const Box& box, int j, int k,
+                    std::array<std::vector<std::uint8_t>, 4>& rows, Visit&& visit) {
+  const int nx = box.hi[0] - box.lo[0];
+  for (int r = 0; r < 4; ++r) {  // padded rows (j, k), (j + 1, k), (j, k + 1), (j + 1, k + 1)
+    std::vector<std::uint8_t>& row = rows[std::size_t(r)];
+    row.assign(std::size_t(nx) + 2, 0);
+    const int y = box.lo[1] + j + (r & 1) - 1, z = box.lo[2] + k + (r >> 1) - 1;
+    if (y < box.lo[1] || y >= box.hi[1] || z < box.lo[2] || z >= box.hi[2]) continue;
+    const unsigned char* in = &mask.data[mask.grid.linear(box.lo[0], y, z)];
+    for (int i = 0; i < nx; ++i) row[std::size_t(i) + 1] = in[i] != 0;
+  }
+  // Corner bit b is row b >> 1 at x offset b & 1: stepping along x, the upper-x corners become
+  // the lower-x ones.
+  auto upper = [&](int x) {
+    return rows[0][std::size_t(x)] << 1 | rows[1][std::size_t(x)] << 3 |
+           rows[2][std::size_t(x)] << 5 | rows[3][std::size_t(x)] << 7;
+  };
+  int c = upper(0) >> 1;
+  for (int i = 0; i <= nx; ++i) {
+    c = (c >> 1 & 0x55) | upper(i + 1);
+    if (c != 0 && c != 255) visit(i, c);
+  }
+}
+
 }  // namespace
 
 TriangleSurface marching_cubes(const Mask& mask) {
@@ -133,18 +169,7 @@ TriangleSurface marching_cubes(const Mask& mask) {
   const Box box = object_box(mask);
   if (box.empty()) return {};
   const CaseTable& table = case_table();
-  // The box padded by one voxel of zeros all around; cube (i, j, k) has its lowest corner at
-  // padded voxel (i, j, k), so there are box size + 1 cubes per axis.
-  std::array<int, 3> cubes;
-  for (int a = 0; a < 3; ++a) cubes[a] = box.hi[a] - box.lo[a] + 1;
-  // Padded row (j, k) as 0/1, zeros outside the box.
-  auto padded_row = [&](int j, int k, std::vector<std::uint8_t>& row) {
-    std::fill(row.begin(), row.end(), 0);
-    const int y = box.lo[1] + j - 1, z = box.lo[2] + k - 1;
-    if (y < box.lo[1] || y >= box.hi[1] || z < box.lo[2] || z >= box.hi[2]) return;
-    const unsigned char* in = &mask.data[mask.grid.linear(box.lo[0], y, z)];
-    for (int i = 0; i < box.hi[0] - box.lo[0]; ++i) row[std::size_t(i) + 1] = in[i] != 0;
-  };
+  const std::array<int, 3> cubes = cube_counts(box);
   // Per cube layer, in parallel: its vertices' keys, sorted, and its triangles indexing them.
   // A vertex of cube row j in layer k has doubled coordinates x ≤ 2 cubes[0], y in {2j, 2j + 1,
   // 2j + 2} and z in {2k, 2k + 1, 2k + 2}, so a window of 3 × 3 rows numbers each vertex once;
@@ -161,26 +186,14 @@ TriangleSurface marching_cubes(const Mask& mask) {
     auto row_of = [&](std::size_t z, std::size_t y) {
       return window.begin() + std::ptrdiff_t((3 * z + y) * kx);
     };
-    std::array<std::vector<std::uint8_t>, 4>
-        rows;  // (j, k), (j + 1, k), (j, k + 1), (j + 1, k + 1)
-    for (auto& r : rows) r.resize(std::size_t(cubes[0]) + 1);
+    std::array<std::vector<std::uint8_t>, 4> rows;
     for (int j = 0; j < cubes[1]; ++j) {
       if (j > 0)
         for (std::size_t z = 0; z < 3; ++z) {
           std::copy(row_of(z, 2), row_of(z, 2) + std::ptrdiff_t(kx), row_of(z, 0));
           std::fill(row_of(z, 1), row_of(z, 1) + std::ptrdiff_t(2 * kx), -1);
         }
-      for (int r = 0; r < 4; ++r) padded_row(j + (r & 1), k + (r >> 1), rows[std::size_t(r)]);
-      // Corner bit b is row b >> 1 at x offset b & 1: stepping along x, the upper-x corners
-      // become the lower-x ones.
-      auto upper = [&](int x) {
-        return rows[0][std::size_t(x)] << 1 | rows[1][std::size_t(x)] << 3 |
-               rows[2][std::size_t(x)] << 5 | rows[3][std::size_t(x)] << 7;
-      };
-      int c = upper(0) >> 1;
-      for (int i = 0; i < cubes[0]; ++i) {
-        c = (c >> 1 & 0x55) | upper(i + 1);
-        if (c == 0 || c == 255) continue;
+      visit_cube_row(mask, box, j, k, rows, [&](int i, int c) {
         for (const CaseTriangle& t : table[std::size_t(c)]) {
           Triangle tri;
           for (int v = 0; v < 3; ++v) {
@@ -196,7 +209,7 @@ TriangleSurface marching_cubes(const Mask& mask) {
           }
           out.triangles.push_back(tri);
         }
-      }
+      });
     }
     // Renumber the layer's vertices in key order.
     std::vector<std::int32_t> order(out.keys.size());
@@ -254,6 +267,41 @@ TriangleSurface marching_cubes(const Mask& mask) {
   if (volume < 0)
     for (Triangle& t : surface.triangles) std::swap(t[1], t[2]);
   return surface;
+}
+
+long long marching_cubes_euler(const Mask& mask) {
+  if (mask.grid.voxel_count() == 0) return 0;
+  const Box box = object_box(mask);
+  if (box.empty()) return 0;
+  // Per case, 8 × its share of V − F/2: a vertex at a voxel centre is shared by the 8 cubes
+  // around it, one at an edge midpoint by 4, at a face centre by 2, at the cube centre by none,
+  // and every cube around a vertex has it (the surface is closed).
+  static const std::array<long long, 256> share = [] {
+    std::array<long long, 256> out{};
+    const CaseTable& table = case_table();
+    for (std::size_t c = 0; c < 256; ++c) {
+      std::vector<std::array<std::uint8_t, 3>> vertices;
+      for (const CaseTriangle& t : table[c])
+        for (const auto& v : t.corner) vertices.push_back(v);
+      std::sort(vertices.begin(), vertices.end());
+      vertices.erase(std::unique(vertices.begin(), vertices.end()), vertices.end());
+      for (const auto& v : vertices) out[c] += 1LL << ((v[0] & 1) + (v[1] & 1) + (v[2] & 1));
+      out[c] -= 4 * (long long)table[c].size();
+    }
+    return out;
+  }();
+  const std::array<int, 3> cubes = cube_counts(box);
+  const long long sum = tbb::parallel_reduce(
+      tbb::blocked_range<int>(0, cubes[2]), 0LL,
+      [&](const tbb::blocked_range<int>& r, long long total) {
+        std::array<std::vector<std::uint8_t>, 4> rows;
+        for (int k = r.begin(); k != r.end(); ++k)
+          for (int j = 0; j < cubes[1]; ++j)
+            visit_cube_row(mask, box, j, k, rows, [&](int, int c) { total += share[std::size_t(c)]; });
+        return total;
+      },
+      std::plus<>());
+  return sum / 8;
 }
 
 TetMesh voxel_tet_mesh(const Mask& mask) {

@@ -27,6 +27,10 @@ struct TriangleSurface {
 // a closed, outward-oriented 2-manifold; world (mm). Masks up to 2^20 voxels along each axis.
 TriangleSurface marching_cubes(const Mask& mask);
 
+// The Euler characteristic (V − E + F) of marching_cubes(mask), counted cube by cube from its
+// cases without making the surface (a ball 2, a torus 0, a ball with a cavity 4).
+long long marching_cubes_euler(const Mask& mask);
+
 // Every non-zero voxel as a cube (corners at voxel centre ± spacing/2, world) split into six
 // positively oriented tets around its main diagonal (Kuhn split; conforming between
 // neighbouring voxels). Its boundary is the staircase voxel surface; it is a 2-manifold unless

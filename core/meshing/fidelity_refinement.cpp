@@ -7,10 +7,14 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <cstdlib>
 #include <numeric>
+#include <optional>
+#include <tuple>
 #include <utility>
 
 #include "base/point_grid.h"
+#include "fields/marching_cubes.h"
 #include "fields/smoothing.h"
 #include "sampling/surface_sampling.h"
 
@@ -218,6 +222,17 @@ RefinedMesh build_refined_mesh(const PreprocessResult& pre, const std::vector<Ve
     return fix;
   };
 
+  // The boundary must have the object's topology: of the meshes checked, the one returned is
+  // the one whose boundary's Euler characteristic is nearest the object surface's, then the one
+  // with the fewest pits and disagreeing voxels. A round that fixes pits can bridge a crack the
+  // smoothed indicator closes (a handle more, on the liver with seed 3): its mesh goes on to the
+  // next round, but it is returned only if no earlier mesh had the right topology.
+  const long long object_euler = marching_cubes_euler(pre.object);
+  const auto rank = [object_euler](const MeshGenerationResult& m, const FidelityFix& f) {
+    return std::tuple(std::llabs(m.boundary_euler - object_euler), f.deep_boundary.size(),
+                      f.disagreeing_voxels);
+  };
+
   std::vector<Vec3> b = surface, i = interior;
   DelaunayMesher mesher(b, i, occupancy, mesh_options, progress);
   MeshGenerationResult result = mesher.mesh();
@@ -226,6 +241,11 @@ RefinedMesh build_refined_mesh(const PreprocessResult& pre, const std::vector<Ve
   FidelityFix fix;
   std::vector<int> deep;  // interior samples (indices into i) at the bottom of pits
   if (options.max_rounds > 0) fix = check(result, b, i, b_id, i_id, deep);
+  // The best mesh so far, when it is not the current one, with the sizes of added_all and
+  // dropped_all and the index of its check in rounds.
+  auto best_rank = rank(result, fix);
+  std::optional<MeshGenerationResult> best;
+  std::size_t best_added = 0, best_dropped = 0, best_check = 0;
   for (int round = 0; round < options.max_rounds; ++round) {
     FidelityRefinementRound r{fix.disagreeing_voxels, fix.deep_boundary.size(),
                               fix.samples.size(), 0, result.boundary_euler, false};
@@ -270,6 +290,15 @@ RefinedMesh build_refined_mesh(const PreprocessResult& pre, const std::vector<Ve
                  std::pair(fix.deep_boundary.size(), fix.disagreeing_voxels);
     rounds.push_back(r);
     if (!r.accepted) break;
+    if (rank(next, next_fix) < best_rank) {
+      best_rank = rank(next, next_fix);
+      best.reset();
+    } else if (!best) {  // the mesh before this round stays the best so far
+      best = std::move(result);
+      best_added = added_all.size();
+      best_dropped = dropped_all.size();
+      best_check = rounds.size() - 1;
+    }
     added_all.insert(added_all.end(), fix.samples.begin(), fix.samples.end());
     for (int n : dropped) dropped_all.push_back(i[std::size_t(n)]);
     b = std::move(next_b);
@@ -285,6 +314,12 @@ RefinedMesh build_refined_mesh(const PreprocessResult& pre, const std::vector<Ve
   if (!rounds.empty() && rounds.back().accepted)
     rounds.push_back({fix.disagreeing_voxels, fix.deep_boundary.size(), 0, 0,
                       result.boundary_euler, false});
+  if (best) {
+    result = std::move(*best);
+    added_all.resize(best_added);
+    dropped_all.resize(best_dropped);
+  }
+  if (!rounds.empty()) rounds[best ? best_check : rounds.size() - 1].returned = true;
   RefinedMesh out;
   static_cast<MeshGenerationResult&>(out) = std::move(result);
   out.added_surface_samples = std::move(added_all);

@@ -25,6 +25,9 @@ struct FidelityRefinementRound {
   bool accepted = false;  // its round's mesh had fewer deep samples, or as many and fewer
                           // disagreeing voxels; false: dropped, or no round made (the last
                           // check, when nothing was left to fix or no round was left)
+  bool returned = false;  // this check's mesh is the result: of the checked meshes, the one
+                          // whose boundary Euler characteristic is nearest the object's, then
+                          // with the fewest deep samples, then disagreeing voxels
 };
 
 // Stage 5's mesh after refinement, with the record of what refinement did. vertex_source is
@@ -32,8 +35,8 @@ struct FidelityRefinementRound {
 struct RefinedMesh : MeshGenerationResult {
   std::vector<Vec3> added_surface_samples;     // world, mm
   std::vector<Vec3> dropped_interior_samples;  // world, mm
-  std::vector<FidelityRefinementRound> refinement;  // one per check of a kept mesh: the last
-                                                    // one is the final mesh's
+  std::vector<FidelityRefinementRound> refinement;  // one per check of a kept mesh; the
+                                                    // returned one is marked
 };
 
 struct FidelityRefinementOptions {

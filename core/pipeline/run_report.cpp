@@ -120,7 +120,8 @@ nlohmann::json run_report(const Pipeline& pipe) {
                         {"added_samples", r.added_samples},
                         {"dropped_interior", r.dropped_interior},
                         {"boundary_euler", r.boundary_euler},
-                        {"accepted", r.accepted}});
+                        {"accepted", r.accepted},
+                        {"returned", r.returned}});
     j["refinement"] = rounds;
   }
   j["counts"] = counts;
