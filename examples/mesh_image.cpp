@@ -44,7 +44,7 @@ int main(int argc, char** argv) {
         build_refined_mesh(pre, surface.world, interior.kept_world, mesh_options(p),
                            refinement_options(p));
     // 6. Optimisation: flips, vertex moves and insertions remove the slivers.
-    optimize_mesh(result.mesh, &pre.indicator, p.optimization);
+    optimize_mesh(result.mesh, &pre.indicator, p.optimization, {}, &pre.object);
     write_mesh_with_quality(result.mesh, argv[2]);
     std::printf("%zu surface + %zu interior samples -> %zu vertices, %zu tets -> %s\n",
                 surface.world.size(), interior.kept_world.size(), result.mesh.vertices.size(),

@@ -700,3 +700,47 @@ TEST(MeshOptimization, CommittedPhantomImage) {
   EXPECT_EQ(q.validity.boundary.components, 1u);
   EXPECT_GE(q.dihedral.min_deg, 10.0);
 }
+
+TEST(MeshOptimization, MaskSurfaceIsTheMasksHalfLevelToFirstOrder) {
+  // Object: voxels with i ≥ 10 (spacing 0.7 mm in x); its boundary, the 0.5 level of the
+  // trilinear 0/1 field, is the plane i = 9.5. Half a voxel off it, f − 0.5 = δ and the
+  // half-voxel central difference gives |∇f| = (1 − |δ|) / 0.7: a first-order distance
+  // 0.7 δ / (1 − |δ|), exact on the level, with the right sign; farther out the field is
+  // flat and the distance is clamped.
+  Mask mask;
+  mask.grid.dims = {20, 6, 6};
+  mask.grid.spacing = {0.7, 1.0, 1.3};
+  mask.grid.origin = {-3, 2, 5};
+  mask.data.assign(mask.grid.voxel_count(), 0);
+  for (int k = 0; k < 6; ++k)
+    for (int j = 0; j < 6; ++j)
+      for (int i = 10; i < 20; ++i) mask.data[mask.grid.linear(i, j, k)] = 1;
+  const opt::MaskSurface surface(mask);
+  EXPECT_DOUBLE_EQ(surface.max_spacing_mm(), 1.3);
+  for (const double di : {-0.4, -0.25, 0.0, 0.2, 0.45}) {
+    const Vec3 p = mask.grid.index_to_world({9.5 + di, 2.3, 3.1});
+    EXPECT_NEAR(surface.signed_distance(p, 5.0), -di * 0.7 / (1 - std::abs(di)), 1e-6)
+        << di;  // outside positive
+  }
+  EXPECT_DOUBLE_EQ(surface.signed_distance(mask.grid.index_to_world({4, 2, 2}), 1.3), 1.3);
+  EXPECT_DOUBLE_EQ(surface.signed_distance(mask.grid.index_to_world({15, 2, 2}), 1.3), -1.3);
+}
+
+TEST(MeshOptimization, FitToTheSegmentationFollowsItCloserThanToTheSmoothedLevelSet) {
+  // The smoothed indicator's 0.5 level lies a few tenths of a voxel from the segmentation's own
+  // boundary (its marching-cubes surface): fitted to the latter, the liver's boundary is closer
+  // to it in the mean and at the 95th percentile.
+  auto image = std::make_shared<const Image>(read_image(kLiver));
+  auto pipe = mesh_image(image);
+  const PreprocessResult& pre = *pipe->preprocess();
+  TetMesh to_level_set = pipe->mesh()->mesh, to_object = to_level_set;
+  optimize_mesh(to_level_set, &pre.indicator);
+  optimize_mesh(to_object, &pre.indicator, {}, {}, &pre.object);
+  const FidelityReport a = compute_fidelity(to_level_set, pre.object);
+  const FidelityReport b = compute_fidelity(to_object, pre.object);
+  std::printf("liver: mean %.4f -> %.4f mm, p95 %.3f -> %.3f mm\n", a.distance.mean_mm,
+              b.distance.mean_mm, a.distance.p95_mm, b.distance.p95_mm);
+  EXPECT_LT(b.distance.mean_mm, 0.99 * a.distance.mean_mm);
+  EXPECT_LE(b.distance.p95_mm, a.distance.p95_mm);
+  EXPECT_TRUE(compute_quality(to_object).validity.valid);
+}

@@ -106,7 +106,11 @@ Volume<float> smooth_indicator(const Mask& mask, double sigma_mm, const Progress
   return f;
 }
 
-float sample_trilinear(const Volume<float>& field, const Vec3& index) {
+namespace {
+
+// value(i, j, k) is the field's value at a voxel, as a double.
+template <class T, class Value>
+double trilinear(const Volume<T>& field, const Vec3& index, Value value) {
   const Grid& g = field.grid;
   int base[3];
   double frac[3];
@@ -117,17 +121,18 @@ float sample_trilinear(const Volume<float>& field, const Vec3& index) {
   }
   const int i1 = std::min(base[0] + 1, g.dims[0] - 1), j1 = std::min(base[1] + 1, g.dims[1] - 1),
             k1 = std::min(base[2] + 1, g.dims[2] - 1);
-  auto v = [&](int i, int j, int k) { return double(field.at(i, j, k)); };
+  const auto& v = value;
   const double c00 = v(base[0], base[1], base[2]) * (1 - frac[0]) + v(i1, base[1], base[2]) * frac[0];
   const double c10 = v(base[0], j1, base[2]) * (1 - frac[0]) + v(i1, j1, base[2]) * frac[0];
   const double c01 = v(base[0], base[1], k1) * (1 - frac[0]) + v(i1, base[1], k1) * frac[0];
   const double c11 = v(base[0], j1, k1) * (1 - frac[0]) + v(i1, j1, k1) * frac[0];
   const double c0 = c00 * (1 - frac[1]) + c10 * frac[1];
   const double c1 = c01 * (1 - frac[1]) + c11 * frac[1];
-  return float(c0 * (1 - frac[2]) + c1 * frac[2]);
+  return c0 * (1 - frac[2]) + c1 * frac[2];
 }
 
-Vec3 gradient_local(const Volume<float>& field, const Vec3& index) {
+template <class T>
+Vec3 central_gradient(const Volume<T>& field, const Vec3& index) {
   Vec3 grad;
   const double h = 0.5;  // half a voxel: smooth enough on the trilinear field
   for (int a = 0; a < 3; ++a) {
@@ -139,5 +144,22 @@ Vec3 gradient_local(const Volume<float>& field, const Vec3& index) {
   }
   return grad;
 }
+
+}  // namespace
+
+float sample_trilinear(const Volume<float>& field, const Vec3& index) {
+  return float(trilinear(field, index, [&](int i, int j, int k) { return double(field.at(i, j, k)); }));
+}
+
+float sample_trilinear(const Mask& mask, const Vec3& index) {
+  return float(
+      trilinear(mask, index, [&](int i, int j, int k) { return mask.at(i, j, k) ? 1.0 : 0.0; }));
+}
+
+Vec3 gradient_local(const Volume<float>& field, const Vec3& index) {
+  return central_gradient(field, index);
+}
+
+Vec3 gradient_local(const Mask& mask, const Vec3& index) { return central_gradient(mask, index); }
 
 }  // namespace cvt

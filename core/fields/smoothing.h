@@ -12,9 +12,12 @@ namespace cvt {
 // a cancel every plane of lines.
 Volume<float> smooth_indicator(const Mask& mask, double sigma_mm, const Progress& progress = {});
 
-// Trilinear value of `field` at a continuous index (clamped to the grid).
+// Trilinear value of `field` at a continuous index (clamped to the grid); of a mask, of its
+// values as 0/1 (whose 0.5 level is the surface marching cubes draws).
 float sample_trilinear(const Volume<float>& field, const Vec3& index);
+float sample_trilinear(const Mask& mask, const Vec3& index);
 // Gradient (per mm, in the grid's local axis frame) by central differences of trilinear values.
 Vec3 gradient_local(const Volume<float>& field, const Vec3& index);
+Vec3 gradient_local(const Mask& mask, const Vec3& index);
 
 }  // namespace cvt

@@ -71,8 +71,10 @@ void validate(const TetMesh& mesh, const OptimizationOptions& o) {
 }  // namespace
 
 MeshOptimizer::MeshOptimizer(const TetMesh& mesh, const Volume<float>* indicator,
-                             const OptimizationOptions& options, bool pass_statistics)
+                             const OptimizationOptions& options, bool pass_statistics,
+                             const Mask* object)
     : options_(options), pass_statistics_(pass_statistics) {
+  if (object) target_ = std::make_unique<opt::MaskSurface>(*object);
   const auto t0 = std::chrono::steady_clock::now();
   const double c0 = process_cpu_s();
   validate(mesh, options_);
@@ -205,7 +207,7 @@ bool MeshOptimizer::step(const Progress& progress) {
       // The fit trades a little quality for fidelity, but not near the bad edge: no tet is
       // brought below a 20° dihedral angle's worth, nor below its star's worst.
       f.bad_below = std::max(bad_below, std::sin(20.0 * kPi / 180.0) / m.scale.sine);
-      fit = opt::fit_to_surface(m, *surface_, f);
+      fit = opt::fit_to_surface(m, *surface_, target_.get(), f);
     });
     smoothing_s += result_.fit_s;
     result_.fit_vertices = fit.vertices;
@@ -344,8 +346,9 @@ OptimizationResult MeshOptimizer::result() const {
 }
 
 OptimizationResult optimize_mesh(TetMesh& mesh, const Volume<float>* indicator,
-                                 const OptimizationOptions& options, const Progress& progress) {
-  MeshOptimizer optimizer(mesh, indicator, options);
+                                 const OptimizationOptions& options, const Progress& progress,
+                                 const Mask* object) {
+  MeshOptimizer optimizer(mesh, indicator, options, false, object);
   optimizer.run(progress);
   OptimizationResult r = optimizer.result();
   mesh = optimizer.mesh(&r.vertex_origin);

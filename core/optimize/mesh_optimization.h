@@ -47,6 +47,7 @@ namespace cvt {
 namespace opt {
 class WorkMesh;
 class LevelSetSurface;
+class MaskSurface;
 }  // namespace opt
 
 
@@ -126,8 +127,11 @@ class MeshOptimizer {
   // history (not counted in the timings; a pass recomputes the figures only of the tets it
   // touched); without, only before the first pass and after the last (the others get the
   // counts and min_quality).
+  // `object` (may be null: the fit then targets the indicator's level set) is the segmentation
+  // whose boundary the last step fits the boundary triangles to; it must outlive the optimiser.
   MeshOptimizer(const TetMesh& mesh, const Volume<float>* indicator,
-                const OptimizationOptions& options = {}, bool pass_statistics = false);
+                const OptimizationOptions& options = {}, bool pass_statistics = false,
+                const Mask* object = nullptr);
   ~MeshOptimizer();
   MeshOptimizer(const MeshOptimizer&) = delete;
   MeshOptimizer& operator=(const MeshOptimizer&) = delete;
@@ -162,16 +166,17 @@ class MeshOptimizer {
   bool pass_statistics_ = false;
   std::unique_ptr<opt::WorkMesh> work_;
   std::unique_ptr<opt::LevelSetSurface> surface_;
+  std::unique_ptr<opt::MaskSurface> target_;  // what the fit follows (null: surface_)
   OptimizationResult result_;
   std::int32_t input_vertices_ = 0;
   bool finished_ = false;
   bool fitted_ = false;  // the fit ran: surface_distance_after_mm was measured before it
 };
 
-// Optimises `mesh` in place.
+// Optimises `mesh` in place (`object` as for MeshOptimizer).
 OptimizationResult optimize_mesh(TetMesh& mesh, const Volume<float>* indicator,
                                  const OptimizationOptions& options = {},
-                                 const Progress& progress = {});
+                                 const Progress& progress = {}, const Mask* object = nullptr);
 
 // {"wall_s","setup_s","cpu_s","surface_distance_before_mm","surface_distance_after_mm",
 //  "sliding_vertices","fixed_boundary_vertices","fixed_boundary_distance_mm",

@@ -1,9 +1,12 @@
 // Stage 6's last step: the boundary fitted to the segmentation's surface. Boundary vertices lie
-// on the level set, but the triangles between them are chords: on convex parts they cut inside
-// the surface (the volume shrinks), on concave parts they lie outside, and the mean distance is
-// about the sagitta. Moving each vertex along the surface normal so that the triangles'
-// squared signed distance to the level set, integrated over the boundary, is least puts the
-// chords across the surface instead (as a least-squares line crosses a curve it fits).
+// on the smoothed indicator's level set, but the triangles between them are chords: on convex
+// parts they cut inside the surface (the volume shrinks), on concave parts they lie outside, and
+// the mean distance is about the sagitta. Moving each vertex along the surface normal so that
+// the triangles' squared signed distance to the segmentation's own boundary (the 0.5 level of
+// its mask, trilinear), integrated over the boundary, is least puts the chords across that
+// surface instead (as a least-squares line crosses a curve it fits). The smoothed level set
+// lies up to a few tenths of a voxel from it; on the liver, fitting to the level set left a
+// mean distance 3 % larger, on the skull CT 15 %.
 //
 // Gauss–Newton with a lumped mass matrix: with e the signed distance sampled on each triangle
 // and φ_v the hat function of vertex v, each step moves v by Σ w φ_v e / Σ w φ_v (w the
@@ -73,8 +76,9 @@ struct FaceTerms {
   double area = 0, abs_error = 0;
 };
 
+template <class Surface>
 std::vector<FaceTerms> face_terms(const WorkMesh& m, const std::vector<Triangle>& faces,
-                                  const LevelSetSurface& surface, double limit_mm) {
+                                  const Surface& surface, double limit_mm) {
   static const std::vector<std::array<double, 3>> samples = sample_weights();
   std::vector<FaceTerms> out(faces.size());
   tbb::parallel_for(std::size_t(0), faces.size(), [&](std::size_t i) {
@@ -102,13 +106,19 @@ double mean_abs_error(const std::vector<FaceTerms>& terms) {
 
 }  // namespace
 
-SurfaceFit fit_to_surface(WorkMesh& m, const LevelSetSurface& surface,
+SurfaceFit fit_to_surface(WorkMesh& m, const LevelSetSurface& surface, const MaskSurface* segmentation,
                           const SurfaceFitOptions& o) {
   SurfaceFit fit;
   if (m.on_surface.empty()) return fit;
   const std::vector<Triangle> faces = boundary_faces(m);
   if (faces.empty()) return fit;
-  const double limit = 2.0 * surface.max_spacing_mm();
+  // The segmentation's boundary, where given, is known to first order within a voxel only.
+  const double limit =
+      segmentation ? segmentation->max_spacing_mm() : 2.0 * surface.max_spacing_mm();
+  const auto errors = [&] {
+    return segmentation ? face_terms(m, faces, *segmentation, limit)
+                        : face_terms(m, faces, surface, limit);
+  };
   std::vector<char> selected(m.vertex_count(), 0);
   for (const Triangle& f : faces)
     for (std::int32_t v : f) selected[v] = m.on_surface[v];
@@ -117,7 +127,7 @@ SurfaceFit fit_to_surface(WorkMesh& m, const LevelSetSurface& surface,
   const auto classes = colour_classes(m, selected, true);
   std::vector<double> numerator(m.vertex_count()), weight(m.vertex_count());
   std::vector<Vec3> target(m.vertex_count());
-  std::vector<FaceTerms> terms = face_terms(m, faces, surface, limit);
+  std::vector<FaceTerms> terms = errors();
   fit.mean_error_before_mm = mean_abs_error(terms);
   for (int iteration = 0; iteration < o.iterations; ++iteration) {
     std::fill(numerator.begin(), numerator.end(), 0.0);
@@ -139,7 +149,7 @@ SurfaceFit fit_to_surface(WorkMesh& m, const LevelSetSurface& surface,
             return Move{m.pos[v]};
           return move_boundary_vertex(m, v, target[v], o.bad_below, q);
         });
-    terms = face_terms(m, faces, surface, limit);
+    terms = errors();
     if (moved.empty()) break;
   }
   fit.mean_error_after_mm = mean_abs_error(terms);

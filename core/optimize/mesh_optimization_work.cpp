@@ -264,7 +264,8 @@ bool WorkMesh::is_boundary_edge(std::int32_t a, std::int32_t b) const {
 namespace {
 
 // The field's gradient in the world frame (per mm).
-Vec3 world_gradient(const Volume<float>& field, const Vec3& index) {
+template <class T>
+Vec3 world_gradient(const Volume<T>& field, const Vec3& index) {
   const Vec3 g = gradient_local(field, index);
   const auto& d = field.grid.direction;  // row-major, columns = axes
   return {d[0] * g.x + d[1] * g.y + d[2] * g.z, d[3] * g.x + d[4] * g.y + d[5] * g.z,
@@ -272,6 +273,19 @@ Vec3 world_gradient(const Volume<float>& field, const Vec3& index) {
 }
 
 }  // namespace
+
+double MaskSurface::signed_distance(const Vec3& world, double limit_mm) const {
+  const Vec3 index = mask_->grid.world_to_index(world);
+  const double f = double(sample_trilinear(*mask_, index)) - 0.5;
+  const double g = norm(world_gradient(*mask_, index));
+  if (!(g > 1e-12)) return f > 0 ? -limit_mm : limit_mm;
+  return std::clamp(-f / g, -limit_mm, limit_mm);
+}
+
+double MaskSurface::max_spacing_mm() const {
+  const Vec3& s = mask_->grid.spacing;
+  return std::max({s.x, s.y, s.z});
+}
 
 double LevelSetSurface::min_spacing_mm() const {
   const Vec3& s = field_->grid.spacing;

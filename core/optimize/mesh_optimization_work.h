@@ -152,6 +152,22 @@ class LevelSetSurface {
   float level_;
 };
 
+// The segmentation's own boundary: the 0.5 level of its mask's trilinear interpolation, the
+// surface marching cubes draws. The smoothed indicator's level set is the surface boundary
+// vertices slide on (its normals are smooth); this one is what they are fitted to.
+class MaskSurface {
+ public:
+  explicit MaskSurface(const Mask& mask) : mask_(&mask) {}
+  // Signed distance (mm; outside positive) to first order, (0.5 − f) / |∇f|. The mask's field
+  // is flat a voxel away from its level, so only the first voxel means anything: clamped to
+  // ±limit_mm.
+  double signed_distance(const Vec3& world, double limit_mm) const;
+  double max_spacing_mm() const;
+
+ private:
+  const Mask* mask_;
+};
+
 // Quality of tet t of the star of v, with v at x (see tet_quality for `floor`).
 inline double quality_at(const WorkMesh& m, std::int32_t t, std::int32_t v, const Vec3& x,
                          double floor = -std::numeric_limits<double>::infinity()) {
@@ -284,14 +300,15 @@ struct SurfaceFit {
   double mean_offset_mm = 0;              // their mean and largest distance from where they were
   double max_offset_mm = 0;
   double mean_error_before_mm = 0;        // area-weighted mean |signed distance| of the
-  double mean_error_after_mm = 0;         // boundary triangles to the level set
+  double mean_error_after_mm = 0;         // boundary triangles to the surface fitted to
 };
 
-// Fits the boundary triangles to the level set in the least-squares sense by moving the
-// on_surface vertices along the surface normal (see mesh_optimization_fit.cpp). Colour classes
-// in parallel: deterministic whatever the thread count.
+// Fits the boundary triangles in the least-squares sense to `segmentation`'s boundary, or to
+// the level set when it is null, by moving the on_surface vertices along the
+// level set's normal (see mesh_optimization_fit.cpp). Colour classes in parallel: deterministic
+// whatever the thread count.
 SurfaceFit fit_to_surface(WorkMesh& mesh, const LevelSetSurface& surface,
-                          const SurfaceFitOptions& options);
+                          const MaskSurface* segmentation, const SurfaceFitOptions& options);
 
 // Lawson flips (2-3, 3-2) towards a Delaunay mesh, from the tets in `seeds`: a face whose
 // opposite vertex lies inside the circumsphere is flipped when no new tet is bad, nor worse than

@@ -315,7 +315,8 @@ int Pipeline::optimize_passes(int k, const Progress& progress) {
   progress(std::string(stage_name(Stage::optimize)), 0.0);
   if (!optimizer_)
     optimizer_ = std::make_unique<MeshOptimizer>(mesh_->mesh, &preprocess_->indicator,
-                                                 parameters_.optimization, pass_statistics_);
+                                                 parameters_.optimization, pass_statistics_,
+                                                 &preprocess_->object);
   int done = 0;
   // The mesh follows the optimiser also after a cancel (every phase of a pass keeps it valid).
   auto adopt = [&] {
