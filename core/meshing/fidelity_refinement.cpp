@@ -222,7 +222,7 @@ RefinedMesh build_refined_mesh(const PreprocessResult& pre, const std::vector<Ve
     return fix;
   };
 
-  // The boundary must have the object's topology: of the meshes checked, the one returned is
+  // The boundary must have the object's topology: of the meshes kept, the one returned is
   // the one whose boundary's Euler characteristic is nearest the object surface's, then the one
   // with the fewest pits and disagreeing voxels. A round that fixes pits can bridge a crack the
   // smoothed indicator closes (a handle more, on the liver with seed 3): its mesh goes on to the
@@ -241,11 +241,10 @@ RefinedMesh build_refined_mesh(const PreprocessResult& pre, const std::vector<Ve
   FidelityFix fix;
   std::vector<int> deep;  // interior samples (indices into i) at the bottom of pits
   if (options.max_rounds > 0) fix = check(result, b, i, b_id, i_id, deep);
-  // The best mesh so far, when it is not the current one, with the sizes of added_all and
-  // dropped_all and the index of its check in rounds.
+  // The best mesh so far, when it is not the current one, and the index of its check in rounds.
   auto best_rank = rank(result, fix);
   std::optional<MeshGenerationResult> best;
-  std::size_t best_added = 0, best_dropped = 0, best_check = 0;
+  std::size_t best_check = 0;
   for (int round = 0; round < options.max_rounds; ++round) {
     FidelityRefinementRound r{fix.disagreeing_voxels, fix.deep_boundary.size(),
                               fix.samples.size(), 0, result.boundary_euler, false};
@@ -295,8 +294,6 @@ RefinedMesh build_refined_mesh(const PreprocessResult& pre, const std::vector<Ve
       best.reset();
     } else if (!best) {  // the mesh before this round stays the best so far
       best = std::move(result);
-      best_added = added_all.size();
-      best_dropped = dropped_all.size();
       best_check = rounds.size() - 1;
     }
     added_all.insert(added_all.end(), fix.samples.begin(), fix.samples.end());
@@ -314,10 +311,15 @@ RefinedMesh build_refined_mesh(const PreprocessResult& pre, const std::vector<Ve
   if (!rounds.empty() && rounds.back().accepted)
     rounds.push_back({fix.disagreeing_voxels, fix.deep_boundary.size(), 0, 0,
                       result.boundary_euler, false});
-  if (best) {
+  if (best) {  // what the rounds before its check added and dropped led to it
     result = std::move(*best);
-    added_all.resize(best_added);
-    dropped_all.resize(best_dropped);
+    std::size_t added = 0, dropped = 0;
+    for (std::size_t k = 0; k < best_check; ++k) {
+      added += rounds[k].added_samples;
+      dropped += rounds[k].dropped_interior;
+    }
+    added_all.resize(added);
+    dropped_all.resize(dropped);
   }
   if (!rounds.empty()) rounds[best ? best_check : rounds.size() - 1].returned = true;
   RefinedMesh out;

@@ -25,7 +25,7 @@ struct FidelityRefinementRound {
   bool accepted = false;  // its round's mesh had fewer deep samples, or as many and fewer
                           // disagreeing voxels; false: dropped, or no round made (the last
                           // check, when nothing was left to fix or no round was left)
-  bool returned = false;  // this check's mesh is the result: of the checked meshes, the one
+  bool returned = false;  // this check's mesh is the result: of the kept meshes, the one
                           // whose boundary Euler characteristic is nearest the object's, then
                           // with the fewest deep samples, then disagreeing voxels
 };

@@ -272,14 +272,21 @@ Vec3 world_gradient(const Volume<T>& field, const Vec3& index) {
           d[6] * g.x + d[7] * g.y + d[8] * g.z};
 }
 
+// (level − f) / |∇f| at `world`, clamped to ±limit_mm (outside, where f < level, positive).
+template <class T>
+double first_order_signed_distance(const Volume<T>& field, double level, const Vec3& world,
+                                   double limit_mm) {
+  const Vec3 index = field.grid.world_to_index(world);
+  const double f = double(sample_trilinear(field, index)) - level;
+  const double g = norm(world_gradient(field, index));
+  if (!(g > 1e-12)) return f > 0 ? -limit_mm : limit_mm;
+  return std::clamp(-f / g, -limit_mm, limit_mm);
+}
+
 }  // namespace
 
 double MaskSurface::signed_distance(const Vec3& world, double limit_mm) const {
-  const Vec3 index = mask_->grid.world_to_index(world);
-  const double f = double(sample_trilinear(*mask_, index)) - 0.5;
-  const double g = norm(world_gradient(*mask_, index));
-  if (!(g > 1e-12)) return f > 0 ? -limit_mm : limit_mm;
-  return std::clamp(-f / g, -limit_mm, limit_mm);
+  return first_order_signed_distance(*mask_, 0.5, world, limit_mm);
 }
 
 double MaskSurface::max_spacing_mm() const {
@@ -298,11 +305,7 @@ double LevelSetSurface::max_spacing_mm() const {
 }
 
 double LevelSetSurface::signed_distance(const Vec3& world, double limit_mm) const {
-  const Vec3 index = field_->grid.world_to_index(world);
-  const double f = double(sample_trilinear(*field_, index)) - level_;
-  const double g = norm(world_gradient(*field_, index));
-  if (!(g > 1e-12)) return f > 0 ? -limit_mm : limit_mm;
-  return std::clamp(-f / g, -limit_mm, limit_mm);
+  return first_order_signed_distance(*field_, level_, world, limit_mm);
 }
 
 bool LevelSetSurface::project(Vec3& world, double max_move_mm) const {

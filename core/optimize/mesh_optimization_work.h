@@ -152,8 +152,8 @@ class LevelSetSurface {
   float level_;
 };
 
-// The segmentation's own boundary: the 0.5 level of its mask's trilinear interpolation, the
-// surface marching cubes draws. The smoothed indicator's level set is the surface boundary
+// The segmentation's own boundary: the 0.5 level of its mask's trilinear interpolation (it
+// crosses the voxel edges where marching cubes puts its vertices). The smoothed indicator's level set is the surface boundary
 // vertices slide on (its normals are smooth); this one is what they are fitted to.
 class MaskSurface {
  public:
