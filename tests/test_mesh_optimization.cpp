@@ -486,14 +486,19 @@ TEST(MeshOptimization, NeedlesAreCollapsed) {
   EXPECT_EQ(q.validity.boundary.euler_characteristic, 2);
 }
 
+// With the segmentation given, as the pipeline gives it: boundary refinement runs too (the
+// thick slices make it insert).
 TEST(MeshOptimization, DeterministicAcrossRunsAndThreadCounts) {
   const Phantom p = torus_phantom({0, 0, 0}, 8.0, 3.0);
-  auto pipe = mesh_phantom(p, {0.6, 0.7, 0.8});
+  auto pipe = mesh_phantom(p, {0.5, 0.55, 1.5});
   const Volume<float>& indicator = pipe->preprocess()->indicator;
+  const Mask& object = pipe->preprocess()->object;
   auto run = [&](int threads) {
     TetMesh m = pipe->mesh()->mesh;
     tbb::task_arena arena(threads);
-    arena.execute([&] { optimize_mesh(m, &indicator); });
+    OptimizationResult r;
+    arena.execute([&] { r = optimize_mesh(m, &indicator, {}, {}, &object); });
+    EXPECT_GT(r.inserted_boundary_vertices, 0u);
     return m;
   };
   const TetMesh a = run(2), b = run(2), c = run(1);
@@ -507,13 +512,15 @@ TEST(MeshOptimization, DeterministicAcrossRunsAndThreadCounts) {
 }
 
 TEST(MeshOptimization, SteppingPassByPassGivesTheSameMesh) {
-  const Phantom p = sphere_phantom({1, 2, 3}, 7.0);
-  auto pipe = mesh_phantom(p, {0.6, 0.7, 0.8});
+  const Phantom p = torus_phantom({1, 2, 3}, 8.0, 3.0);
+  auto pipe = mesh_phantom(p, {0.5, 0.55, 1.5});
   const Volume<float>& indicator = pipe->preprocess()->indicator;
+  const Mask& object = pipe->preprocess()->object;
   TetMesh one_shot = pipe->mesh()->mesh;
-  const OptimizationResult r = optimize_mesh(one_shot, &indicator);
+  const OptimizationResult r = optimize_mesh(one_shot, &indicator, {}, {}, &object);
+  EXPECT_GT(r.inserted_boundary_vertices, 0u);  // boundary refinement is stepped too
 
-  MeshOptimizer stepper(pipe->mesh()->mesh, &indicator);
+  MeshOptimizer stepper(pipe->mesh()->mesh, &indicator, {}, false, &object);
   ASSERT_EQ(stepper.history().size(), 1u);  // the input's figures
   const QualityReport q0 = compute_quality(pipe->mesh()->mesh);
   EXPECT_NEAR(stepper.history()[0].min_dihedral_deg, q0.dihedral.min_deg, 1e-9);
@@ -541,6 +548,9 @@ TEST(MeshOptimization, SteppingPassByPassGivesTheSameMesh) {
   EXPECT_EQ(j["passes"].size(), stepper.history().size());
   EXPECT_TRUE(j["passes"][0].contains("bins_percent"));
   EXPECT_TRUE(j.contains("surface_distance_after_mm"));
+  EXPECT_EQ(j["inserted_boundary_vertices"], r.inserted_boundary_vertices);
+  EXPECT_GT(j["boundary_tolerance_mm"].get<double>(), 0.0);
+  EXPECT_EQ(j["passes"][2]["inserted_boundary"], r.history[2].inserted_boundary);
   // The last entry of the history describes the final mesh.
   const QualityReport qf = compute_quality(stepped);
   EXPECT_NEAR(stepper.history().back().min_dihedral_deg, qf.dihedral.min_deg, 1e-9);
@@ -743,4 +753,61 @@ TEST(MeshOptimization, FitToTheSegmentationFollowsItCloserThanToTheSmoothedLevel
   EXPECT_LT(b.distance.mean_mm, 0.99 * a.distance.mean_mm);
   EXPECT_LE(b.distance.p95_mm, a.distance.p95_mm);
   EXPECT_TRUE(compute_quality(to_object).validity.valid);
+}
+
+// The liver, scanned in 1.33 mm slices: its segmentation steps from slice to slice, and a
+// boundary sampled by r·lfs cuts across those steps where the surface is nearly level. Boundary
+// refinement splits the boundary edges nearest the segmentation's points beyond the tolerance
+// (half the sizing unit), farthest first: the boundary follows the segmentation closer, with
+// the same topology, no tet made bad, and at most a tenth more vertices.
+TEST(MeshOptimization, BoundaryRefinementFollowsTheSegmentation) {
+  auto image = std::make_shared<const Image>(read_image(kLiver));
+  auto pipe = mesh_image(image);
+  const PreprocessResult& pre = *pipe->preprocess();
+  const TetMesh before = pipe->mesh()->mesh;
+  OptimizationOptions off;
+  off.refine_boundary = false;
+  TetMesh plain = before, refined = before;
+  const OptimizationResult rp = optimize_mesh(plain, &pre.indicator, off, {}, &pre.object);
+  const OptimizationResult rr = optimize_mesh(refined, &pre.indicator, {}, {}, &pre.object);
+  const FidelityReport fp = compute_fidelity(plain, pre.object);
+  const FidelityReport fr = compute_fidelity(refined, pre.object);
+  std::printf("liver: %zu boundary vertices inserted (tolerance %.3f mm), %zu -> %zu vertices; "
+              "mean %.4f -> %.4f mm, p95 %.3f -> %.3f mm, Hausdorff %.3f -> %.3f mm\n",
+              rr.inserted_boundary_vertices, rr.boundary_tolerance_mm, plain.vertices.size(),
+              refined.vertices.size(), fp.distance.mean_mm, fr.distance.mean_mm,
+              fp.distance.p95_mm, fr.distance.p95_mm, fp.distance.hausdorff_mm,
+              fr.distance.hausdorff_mm);
+  EXPECT_EQ(rp.inserted_boundary_vertices, 0u);
+  EXPECT_EQ(rp.boundary_tolerance_mm, 0.0);
+  EXPECT_NEAR(rr.boundary_tolerance_mm, 0.5 * pre.sizing_unit_mm, 1e-12);
+  EXPECT_GT(rr.inserted_boundary_vertices, before.vertices.size() / 20);
+  EXPECT_LE(rr.inserted_boundary_vertices, before.vertices.size() / 10);
+  std::size_t per_pass = 0;
+  for (const PassStats& s : rr.history) {
+    if (s.pass != 2 && s.pass != 3) EXPECT_EQ(s.inserted_boundary, 0u) << s.pass;
+    per_pass += s.inserted_boundary;
+  }
+  EXPECT_EQ(per_pass, rr.inserted_boundary_vertices);
+  EXPECT_GT(rr.history[2].far_boundary_points, rr.history[2].inserted_boundary);
+  // Closer to the segmentation in the mean and at the 95th percentile, by more than a tenth.
+  EXPECT_LT(fr.distance.mean_mm, 0.9 * fp.distance.mean_mm);
+  EXPECT_LT(fr.distance.p95_mm, 0.9 * fp.distance.p95_mm);
+  EXPECT_LT(std::abs(fr.volume_error_percent), std::abs(fp.volume_error_percent) + 0.05);
+  // The new vertices are on the boundary; the topology and the quality targets hold.
+  std::vector<char> on_boundary(refined.vertices.size(), 0);
+  for (const Triangle& f : boundary_triangles(refined))
+    for (std::int32_t v : f) on_boundary[std::size_t(v)] = 1;
+  std::size_t new_boundary = 0;
+  for (std::size_t v = 0; v < refined.vertices.size(); ++v)
+    new_boundary += rr.vertex_origin[v] < 0 && on_boundary[v];
+  EXPECT_GE(new_boundary + rr.collapsed_edges + rr.corner_removals, rr.inserted_boundary_vertices);
+  const QualityReport qp = compute_quality(plain), qr = compute_quality(refined);
+  EXPECT_TRUE(qr.validity.valid);
+  EXPECT_TRUE(qr.validity.boundary.closed_manifold);
+  EXPECT_EQ(qr.validity.boundary.euler_characteristic, qp.validity.boundary.euler_characteristic);
+  EXPECT_EQ(qr.validity.boundary.components, qp.validity.boundary.components);
+  EXPECT_GE(qr.dihedral.min_deg, 15.0);
+  EXPECT_LE(qr.dihedral.max_deg, 160.0);
+  for (int k = 0; k < 3; ++k) EXPECT_EQ(qr.shewchuk[k].bins_percent[0], 0.0) << k;
 }

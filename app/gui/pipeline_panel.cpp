@@ -161,6 +161,9 @@ void optimization_section(UiContext& ctx) {
               r->inserted_vertices, r->corner_removals);
   ImGui::Text("boundary: within %.3g mm of the surface (before %.3g mm)",
               r->surface_distance_after_mm, r->surface_distance_before_mm);
+  if (r->boundary_tolerance_mm > 0)
+    ImGui::Text("%zu boundary vertices inserted where the segmentation lay beyond %.3g mm",
+                r->inserted_boundary_vertices, r->boundary_tolerance_mm);
   std::vector<float> min_dihedral, bad;
   for (const PassStats& ps : r->history)
     if (ps.has_statistics) {

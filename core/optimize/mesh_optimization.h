@@ -47,6 +47,7 @@ namespace cvt {
 namespace opt {
 class WorkMesh;
 class LevelSetSurface;
+class BoundaryRefiner;
 class MaskSurface;
 }  // namespace opt
 
@@ -76,6 +77,9 @@ struct PassStats {
   std::size_t moved_interior = 0, moved_surface = 0;  // … and to raise a bad tet
   std::size_t snapped_surface = 0;  // fixed boundary vertices brought onto the surface
   std::size_t inserted = 0;                           // interior vertices inserted
+  // Boundary refinement (passes 2 and 3): points of the segmentation's boundary beyond the
+  // tolerance before it, and boundary vertices inserted.
+  std::size_t far_boundary_points = 0, inserted_boundary = 0;
   std::size_t vertices = 0;                           // after the pass
 };
 
@@ -103,6 +107,9 @@ struct OptimizationResult {
                                       // no other tet) removed with that vertex
   std::size_t collapsed_edges = 0;    // short edges collapsed, a vertex removed with each
   std::size_t inserted_vertices = 0;  // interior vertices inserted
+  std::size_t inserted_boundary_vertices = 0;  // boundary vertices inserted where the
+                                               // segmentation departs from the boundary …
+  double boundary_tolerance_mm = 0;            // … farther than this (0: no refinement)
   // The boundary's fit to the surface after the last pass: vertices moved, their mean and
   // largest offset, the boundary triangles' area-weighted mean distance to the level set
   // before and after, and its time (included in wall_s and in the last pass's smoothing_s).
@@ -167,6 +174,8 @@ class MeshOptimizer {
   std::unique_ptr<opt::WorkMesh> work_;
   std::unique_ptr<opt::LevelSetSurface> surface_;
   std::unique_ptr<opt::MaskSurface> target_;  // what the fit follows (null: surface_)
+  double boundary_tolerance_mm_ = 0;          // of boundary refinement, resolved
+  std::unique_ptr<opt::BoundaryRefiner> refiner_;
   OptimizationResult result_;
   std::int32_t input_vertices_ = 0;
   bool finished_ = false;
@@ -182,11 +191,14 @@ OptimizationResult optimize_mesh(TetMesh& mesh, const Volume<float>* indicator,
 //  "sliding_vertices","fixed_boundary_vertices","fixed_boundary_distance_mm",
 //  "snapped_vertices","max_boundary_shift_mm","max_flip_face_distance_mm",
 //  "max_flip_replaced_distance_mm","boundary_flips",
-//  "corner_removals","collapsed_edges","inserted_vertices","fit_vertices","fit_mean_offset_mm",
+//  "corner_removals","collapsed_edges","inserted_vertices","inserted_boundary_vertices",
+//  "boundary_tolerance_mm",
+//  "fit_vertices","fit_mean_offset_mm",
 //  "fit_max_offset_mm","fit_error_before_mm","fit_error_after_mm","fit_s",
 //  "passes":[{"pass","wall_s","cpu_s","flips_s","odt_s","smoothing_s","insertion_s","tets",
 //  "vertices","min_quality","edge_removals","face_flips","boundary_flips","corner_removals",
 //  "collapsed_edges","odt_moved","moved_interior","moved_surface","snapped_surface","inserted",
+//  "far_boundary_points","inserted_boundary",
 //  with statistics: "min_dihedral_deg","max_dihedral_deg","below_deg":{"5","10","15","20"},
 //  "bins_percent":{measure key: [3]}}]}
 nlohmann::json to_json(const OptimizationResult& result);

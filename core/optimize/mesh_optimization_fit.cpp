@@ -41,34 +41,6 @@ std::vector<std::array<double, 3>> sample_weights() {
   return out;
 }
 
-// The boundary faces (used by one live tet), in slot order.
-std::vector<Triangle> boundary_faces(const WorkMesh& m) {
-  std::vector<std::array<Triangle, 4>> per_tet(m.tets.size());
-  std::vector<std::uint8_t> count(m.tets.size(), 0);
-  tbb::parallel_for(std::size_t(0), m.tets.size(), [&](std::size_t t) {
-    const Tet& tet = m.tets[t];
-    if (is_dead(tet)) return;
-    for (const Triangle& f : outward_faces(tet)) {
-      if (!m.on_boundary[f[0]] || !m.on_boundary[f[1]] || !m.on_boundary[f[2]]) continue;
-      bool shared = false;
-      for (std::int32_t u : m.vertex_tets[f[0]]) {
-        if (u == std::int32_t(t)) continue;
-        const Tet& o = m.tets[u];
-        auto has = [&](std::int32_t w) { return o[0] == w || o[1] == w || o[2] == w || o[3] == w; };
-        if (has(f[1]) && has(f[2])) {
-          shared = true;
-          break;
-        }
-      }
-      if (!shared) per_tet[t][count[t]++] = f;
-    }
-  });
-  std::vector<Triangle> faces;
-  for (std::size_t t = 0; t < m.tets.size(); ++t)
-    for (int k = 0; k < count[t]; ++k) faces.push_back(per_tet[t][k]);
-  return faces;
-}
-
 // Each face's contribution to its corners' Gauss–Newton step: Σ w φ e and Σ w φ per corner;
 // and its area and Σ w |e|.
 struct FaceTerms {

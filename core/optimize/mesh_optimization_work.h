@@ -126,6 +126,9 @@ class WorkMesh {
   }
 };
 
+// The boundary faces (used by one live tet, outward), in slot order.
+std::vector<Triangle> boundary_faces(const WorkMesh& m);
+
 // The tet (a, b, c, d) rearranged as an even permutation of `t` that starts with a, b.
 Tet rotate_to_edge(const Tet& t, std::int32_t a, std::int32_t b);
 
@@ -163,6 +166,7 @@ class MaskSurface {
   // ±limit_mm.
   double signed_distance(const Vec3& world, double limit_mm) const;
   double max_spacing_mm() const;
+  const Mask& mask() const { return *mask_; }
 
  private:
   const Mask* mask_;
@@ -288,6 +292,42 @@ PassCounts smooth_vertices(WorkMesh& mesh, const LevelSetSurface* surface,
 // slides from then on. Colour classes in parallel: deterministic whatever the thread count.
 PassCounts snap_to_surface(WorkMesh& mesh, const LevelSetSurface& surface, double tolerance_mm,
                            double bad_below);
+
+struct BoundaryRefinementOptions {
+  double tolerance_mm = 0;  // segmentation boundary farther than this from the mesh boundary
+  double spacing_mm = 0;    // gets a vertex, one per this spacing
+  double bad_below = 1;     // no new tet below this, nor below the worst tet it replaces
+  std::size_t max_inserted = 0;  // vertices inserted at most
+};
+struct BoundaryRefinement {
+  std::size_t far_points = 0;  // segmentation boundary points beyond the tolerance
+  double max_distance_mm = 0;  // the farthest one's distance
+  std::size_t inserted = 0;    // boundary vertices inserted
+};
+
+// Splits the boundary edges nearest the places where `object`'s boundary lies beyond the
+// tolerance, each new vertex on `surface` (see mesh_optimization_boundary_refinement.cpp).
+// Sequential, farthest first: deterministic. Both must outlive the refiner.
+class BoundaryRefiner {
+ public:
+  BoundaryRefiner(const Mask& object, const LevelSetSurface& surface)
+      : object_(&object), surface_(&surface) {}
+  // The first run finds the object's boundary points beyond the tolerance; each run (a pass)
+  // inserts where it can, and leaves the points not yet tried for the next.
+  BoundaryRefinement run(WorkMesh& mesh, const BoundaryRefinementOptions& options);
+
+  struct FarPoint {
+    double distance;
+    Vec3 at;
+    std::int32_t face;  // nearest boundary face
+  };
+
+ private:
+  const Mask* object_;
+  const LevelSetSurface* surface_;
+  std::vector<FarPoint> far_;
+  bool scanned_ = false;
+};
 
 struct SurfaceFitOptions {
   int iterations = 2;      // Gauss–Newton steps

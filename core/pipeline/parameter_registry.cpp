@@ -257,6 +257,21 @@ std::vector<ParameterSpec> make_registry() {
        .tooltip = "Boundary vertices farther than this from the surface are not surface samples "
                   "and stay fixed (smallest voxel spacings).",
        .lo = 0, .hi = 2, .ref = opt<&O::surface_tolerance_voxels>, .active = optimizing},
+      // A facet-distance bound, as CGAL Mesh_3's facet_distance: r·lfs alone cuts across the
+      // segmentation's voxel-scale detail (where a thick slice ends). In millimetres, from the
+      // anatomy's own scale, so a finer scan of the same organ gets about as many vertices.
+      {.key = "refine_boundary", .section = kOpt, .cli = "opt-refine-boundary",
+       .label = "refine boundary", .stage = S::optimize,
+       .tooltip = "After the first pass, insert boundary vertices where the segmentation's "
+                  "boundary lies farther than the tolerance below from the mesh boundary, "
+                  "farthest first, at most a tenth more vertices.",
+       .ref = opt<&O::refine_boundary>, .active = optimizing},
+      {.key = "boundary_tolerance_mm", .section = kOpt, .cli = "opt-boundary-tolerance",
+       .label = "boundary tolerance", .unit = "mm", .stage = S::optimize,
+       .tooltip = "Boundary refinement: farthest the segmentation's boundary may lie from the "
+                  "mesh boundary (mm); auto: half the sizing unit (see medial λ).",
+       .lo = 0, .zero_means = "auto", .ref = opt<&O::boundary_tolerance_mm>,
+       .active = optimizing},
       {.key = "fit_surface", .section = kOpt, .cli = "opt-fit-surface",
        .label = "fit boundary to surface", .stage = S::optimize,
        .tooltip = "Last: move boundary vertices along the normal so the boundary triangles fit "

@@ -1,0 +1,221 @@
+// Stage 6, in its second and third passes: boundary vertices where the segmentation departs
+// from the mesh. Stage 2 spaces the surface samples by r·lfs, which follows the segmentation's
+// smooth parts but cuts across its voxel-scale detail (where a thick slice ends on a nearly
+// level surface, a ridge, a groove); there the mesh misses the boundary by up to a voxel, which
+// no vertex move can mend. Where a point of the segmentation's boundary lies farther than a
+// tolerance from the mesh boundary, the boundary edge nearest it is split and the new vertex
+// put on the surface, farthest points first — as Delaunay refinement inserts a surface point
+// where a facet lies farther than its distance bound (CGAL Mesh_3's facet_distance). Splitting
+// an edge keeps the topology; the passes that follow work on the new tets like on any other.
+#include <tbb/parallel_for.h>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <utility>
+
+#include "base/point_grid.h"
+#include "evaluate/triangle_grid.h"
+#include "optimize/mesh_optimization_work.h"
+
+namespace cvt::opt {
+namespace {
+
+constexpr int kSweeps = 3;
+
+using FarPoint = BoundaryRefiner::FarPoint;
+
+// The points of the segmentation's boundary (its mask's 0.5 level on the edges between voxel
+// centres, where marching cubes puts its vertices) farther than `tolerance_mm` from the
+// boundary faces, farthest first (ties in scan order).
+std::vector<FarPoint> far_points(const Mask& object, const TriangleSurface& boundary,
+                                 double tolerance_mm) {
+  const TriangleGrid triangles(boundary);
+  const Grid& grid = object.grid;
+  const int nx = grid.dims[0], ny = grid.dims[1], nz = grid.dims[2];
+  const std::size_t row = std::size_t(nx), slice = row * std::size_t(ny);
+  const unsigned char* data = object.data.data();
+  std::vector<std::vector<FarPoint>> slabs(std::size_t(std::max(nz, 0)));
+  tbb::parallel_for(0, nz, [&](int k) {
+    std::int32_t hint = -1;
+    const double tolerance2 = tolerance_mm * tolerance_mm;
+    auto check = [&](double i, double j, double kk) {
+      const Vec3 p = grid.index_to_world(Vec3{i, j, kk});
+      // Most points lie within the tolerance of the face nearest the point before: no search.
+      if (hint >= 0) {
+        const Triangle& t = boundary.triangles[std::size_t(hint)];
+        if (point_triangle_squared_distance(p, boundary.vertices[t[0]], boundary.vertices[t[1]],
+                                            boundary.vertices[t[2]]) <= tolerance2)
+          return;
+      }
+      const double d2 = triangles.squared_distance(p, &hint);
+      if (d2 > tolerance2)
+        slabs[std::size_t(k)].push_back({std::sqrt(d2), p, hint});
+    };
+    for (int j = 0; j < ny; ++j) {
+      const unsigned char* v = data + std::size_t(k) * slice + std::size_t(j) * row;
+      for (int i = 0; i < nx; ++i) {
+        const bool in = v[i] != 0;
+        // Outside the grid is background, as for marching cubes.
+        if ((i + 1 < nx && v[i + 1] != 0) != in) check(i + 0.5, j, k);
+        if ((j + 1 < ny && v[i + row] != 0) != in) check(i, j + 0.5, k);
+        if ((k + 1 < nz && v[i + slice] != 0) != in) check(i, j, k + 0.5);
+      }
+    }
+  });
+  std::vector<FarPoint> out;
+  for (const auto& slab : slabs) out.insert(out.end(), slab.begin(), slab.end());
+  std::stable_sort(out.begin(), out.end(),
+                   [](const FarPoint& a, const FarPoint& b) { return a.distance > b.distance; });
+  return out;
+}
+
+// The closest point of triangle (a, b, c) to p.
+Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
+  // Ericson, Real-Time Collision Detection, 5.1.5.
+  const Vec3 ab = b - a, ac = c - a, ap = p - a;
+  const double d1 = dot(ab, ap), d2 = dot(ac, ap);
+  if (d1 <= 0 && d2 <= 0) return a;
+  const Vec3 bp = p - b;
+  const double d3 = dot(ab, bp), d4 = dot(ac, bp);
+  if (d3 >= 0 && d4 <= d3) return b;
+  const double vc = d1 * d4 - d3 * d2;
+  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + ab * (d1 / (d1 - d3));
+  const Vec3 cp = p - c;
+  const double d5 = dot(ab, cp), d6 = dot(ac, cp);
+  if (d6 >= 0 && d5 <= d6) return c;
+  const double vb = d5 * d2 - d1 * d6;
+  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + ac * (d2 / (d2 - d6));
+  const double va = d3 * d6 - d5 * d4;
+  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
+    return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
+  const double denom = 1 / (va + vb + vc);
+  return a + ab * (vb * denom) + ac * (vc * denom);
+}
+
+std::int32_t add_boundary_vertex(WorkMesh& m, const Vec3& x) {
+  const std::int32_t v = std::int32_t(m.pos.size());
+  m.pos.push_back(x);
+  m.vertex_tets.emplace_back();
+  m.on_boundary.push_back(1);
+  if (!m.on_surface.empty()) m.on_surface.push_back(1);
+  m.vertex_stamp.push_back(m.clock);
+  m.move_failed.push_back(0);
+  return v;
+}
+
+// Splits boundary edge (a, b), whose open ring is given (WorkMesh::edge_ring), with a new vertex
+// at x, when every new tet is better than `floor`; false (nothing changed) otherwise.
+bool split_edge(WorkMesh& m, std::int32_t a, std::int32_t b, const Vec3& x, double floor,
+                const std::vector<std::int32_t>& ring, const std::vector<std::int32_t>& ring_tets) {
+  std::vector<double> q(2 * ring_tets.size());
+  for (std::size_t i = 0; i < ring_tets.size(); ++i) {
+    const Vec3 &c = m.pos[ring[i]], &d = m.pos[ring[i + 1]];
+    q[2 * i] = m.tet_quality(x, m.pos[b], c, d, floor);
+    q[2 * i + 1] = m.tet_quality(m.pos[a], x, c, d, floor);
+    if (!(q[2 * i] > floor) || !(q[2 * i + 1] > floor)) return false;
+  }
+  const std::int32_t v = add_boundary_vertex(m, x);
+  for (std::size_t i = 0; i < ring_tets.size(); ++i) {
+    const std::int32_t label = m.labels[ring_tets[i]];
+    m.remove_tet(ring_tets[i]);
+    m.add_tet({v, b, ring[i], ring[i + 1]}, label, q[2 * i]);
+    m.add_tet({a, v, ring[i], ring[i + 1]}, label, q[2 * i + 1]);
+  }
+  return true;
+}
+
+}  // namespace
+
+BoundaryRefinement BoundaryRefiner::run(WorkMesh& m, const BoundaryRefinementOptions& o) {
+  BoundaryRefinement out;
+  if (!(o.tolerance_mm > 0)) return out;
+  std::vector<Triangle> faces = boundary_faces(m);
+  if (faces.empty()) return out;
+  const bool first = !scanned_;
+  if (first) {
+    far_ = far_points(*object_, TriangleSurface{m.pos, faces}, o.tolerance_mm);
+    scanned_ = true;
+  }
+  std::vector<std::int32_t> with_face, ring, ring_tets;
+  std::vector<FarPoint> retry;
+  // Points whose nearest face an earlier split replaced wait for the next sweep.
+  for (int sweep = 0; sweep < kSweeps && !far_.empty() && out.inserted < o.max_inserted; ++sweep) {
+    if (sweep > 0 || !first) {  // the points left, against the boundary as it is now
+      if (sweep > 0) faces = boundary_faces(m);
+      const TriangleSurface boundary{m.pos, faces};
+      const TriangleGrid triangles(boundary);
+      std::vector<char> keep(far_.size(), 0);
+      tbb::parallel_for(std::size_t(0), far_.size(), [&](std::size_t n) {
+        std::int32_t face = -1;
+        const double d2 = triangles.squared_distance(far_[n].at, &face);
+        keep[n] = d2 > o.tolerance_mm * o.tolerance_mm;
+        far_[n].distance = std::sqrt(d2);
+        far_[n].face = face;
+      });
+      std::vector<FarPoint> left;
+      for (std::size_t n = 0; n < far_.size(); ++n)
+        if (keep[n]) left.push_back(far_[n]);
+      std::stable_sort(left.begin(), left.end(),
+                       [](const FarPoint& a, const FarPoint& b) { return a.distance > b.distance; });
+      far_ = std::move(left);
+    }
+    if (sweep == 0) {
+      out.far_points = far_.size();
+      if (!far_.empty()) out.max_distance_mm = far_.front().distance;
+    }
+    // Farthest first, one per spacing.
+    std::vector<Vec3> at;
+    at.reserve(far_.size());
+    for (const FarPoint& f : far_) at.push_back(f.at);
+    const PointGrid candidates(at, o.spacing_mm);
+    std::vector<char> chosen(far_.size(), 0), tried(far_.size(), 0);
+    std::size_t inserted = 0;
+    for (std::size_t n = 0; n < far_.size() && out.inserted + inserted < o.max_inserted; ++n) {
+      if (candidates.any_within(at[n], o.spacing_mm, [&](std::int32_t k) { return chosen[k] != 0; }))
+        continue;
+      chosen[n] = 1;
+      const Triangle f = faces[std::size_t(far_[n].face)];
+      m.tets_with(f.data(), 3, with_face);
+      if (with_face.size() != 1) continue;  // split already: next sweep
+      tried[n] = 1;
+      const Vec3 &a = m.pos[f[0]], &b = m.pos[f[1]], &c = m.pos[f[2]];
+      const Vec3 foot = closest_on_triangle(far_[n].at, a, b, c);
+      // The edge of the face nearest the point's foot on it, split there (kept off its ends),
+      // and the new vertex where the surface is nearest the point.
+      int e = 0;
+      double best = std::numeric_limits<double>::infinity();
+      for (int k = 0; k < 3; ++k) {
+        const Vec3 &p0 = m.pos[f[k]], &p1 = m.pos[f[(k + 1) % 3]];
+        const double t = std::clamp(dot(foot - p0, p1 - p0) / squared_distance(p0, p1), 0.0, 1.0);
+        const double d = squared_distance(foot, p0 + (p1 - p0) * t);
+        if (d < best) best = d, e = k;
+      }
+      const std::int32_t u = f[e], w = f[(e + 1) % 3];
+      const double t = std::clamp(
+          dot(foot - m.pos[u], m.pos[w] - m.pos[u]) / squared_distance(m.pos[u], m.pos[w]), 0.25, 0.75);
+      const Vec3 on_edge = m.pos[u] + (m.pos[w] - m.pos[u]) * t;
+      Vec3 x = far_[n].at;
+      if (!surface_->project(x, 2 * surface_->max_spacing_mm())) continue;
+      if (m.edge_ring(u, w, ring, ring_tets) != WorkMesh::Ring::open) continue;
+      // The new tets: not bad, nor worse than the worst tet they replace.
+      double floor = o.bad_below;
+      for (std::int32_t r : ring_tets) floor = std::min(floor, m.quality[r]);
+      if (split_edge(m, u, w, x, floor, ring, ring_tets) ||
+          split_edge(m, u, w, (x + on_edge) * 0.5, floor, ring, ring_tets))
+        ++inserted;
+    }
+    out.inserted += inserted;
+    // A point tried is not tried again in this run; in the next, the tets around it may be
+    // better.
+    std::vector<FarPoint> left;
+    for (std::size_t n = 0; n < far_.size(); ++n)
+      (tried[n] ? retry : left).push_back(far_[n]);
+    far_ = std::move(left);
+    if (inserted == 0) break;
+  }
+  far_.insert(far_.end(), retry.begin(), retry.end());
+  return out;
+}
+
+}  // namespace cvt::opt
