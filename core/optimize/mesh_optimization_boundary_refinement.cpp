@@ -4,9 +4,11 @@
 // level surface, a ridge, a groove); there the mesh misses the boundary by up to a voxel, which
 // no vertex move can mend. Where a point of the segmentation's boundary lies farther than a
 // tolerance from the mesh boundary, the boundary edge nearest it is split and the new vertex
-// put on the surface, farthest points first — as Delaunay refinement inserts a surface point
-// where a facet lies farther than its distance bound (CGAL Mesh_3's facet_distance). Splitting
-// an edge keeps the topology; the passes that follow work on the new tets like on any other.
+// moved onto the surface, farthest points first — as Delaunay refinement inserts a surface point
+// where a facet lies farther than its distance bound (CGAL Mesh_3's facet_distance). The split
+// only halves tets, and the move is checked as every boundary move is (its star stays embedded),
+// so the boundary keeps its topology; the passes that follow work on the new tets like on any
+// other.
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
@@ -22,6 +24,7 @@ namespace cvt::opt {
 namespace {
 
 constexpr int kSweeps = 3;
+constexpr double kMinValidQuality = 1e-6;  // no new tet flatter than this
 
 using FarPoint = BoundaryRefiner::FarPoint;
 
@@ -93,43 +96,66 @@ Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3
   return a + ab * (vb * denom) + ac * (vc * denom);
 }
 
-std::int32_t add_boundary_vertex(WorkMesh& m, const Vec3& x) {
-  const std::int32_t v = std::int32_t(m.pos.size());
-  m.pos.push_back(x);
-  m.vertex_tets.emplace_back();
-  m.on_boundary.push_back(1);
-  if (!m.on_surface.empty()) m.on_surface.push_back(1);
-  m.vertex_stamp.push_back(m.clock);
-  m.move_failed.push_back(0);
-  return v;
-}
+// A boundary edge split at a point of it: the old tets of its ring (each halved, so the new ones
+// are positive and the boundary keeps its shape) and the slots of the new ones.
+struct Split {
+  std::int32_t vertex = -1;
+  std::vector<Tet> old_tets;
+  std::vector<std::int32_t> old_labels, new_slots;
+  std::vector<double> old_quality;
+};
 
-// Splits boundary edge (a, b), whose open ring is given (WorkMesh::edge_ring), with a new vertex
-// at x, when every new tet is better than `floor`; false (nothing changed) otherwise.
-bool split_edge(WorkMesh& m, std::int32_t a, std::int32_t b, const Vec3& x, double floor,
-                const std::vector<std::int32_t>& ring, const std::vector<std::int32_t>& ring_tets) {
+// Splits boundary edge (a, b), whose open ring is given (WorkMesh::edge_ring), at the point x of
+// it, when every new tet is better than `floor`; split.vertex −1 (nothing changed) otherwise.
+Split split_edge(WorkMesh& m, std::int32_t a, std::int32_t b, const Vec3& x, double floor,
+                 const std::vector<std::int32_t>& ring, const std::vector<std::int32_t>& ring_tets) {
+  Split split;
   std::vector<double> q(2 * ring_tets.size());
   for (std::size_t i = 0; i < ring_tets.size(); ++i) {
     const Vec3 &c = m.pos[ring[i]], &d = m.pos[ring[i + 1]];
     q[2 * i] = m.tet_quality(x, m.pos[b], c, d, floor);
     q[2 * i + 1] = m.tet_quality(m.pos[a], x, c, d, floor);
-    if (!(q[2 * i] > floor) || !(q[2 * i + 1] > floor)) return false;
+    if (!(q[2 * i] > floor) || !(q[2 * i + 1] > floor)) return split;
   }
-  const std::int32_t v = add_boundary_vertex(m, x);
+  const auto v = std::int32_t(m.pos.size());
+  m.pos.push_back(x);
+  m.vertex_tets.emplace_back();
+  m.on_boundary.push_back(1);
+  if (!m.on_surface.empty()) m.on_surface.push_back(0);  // on the chord, not on the surface
+  m.vertex_stamp.push_back(m.clock);
+  m.move_failed.push_back(0);
+  split.vertex = v;
   for (std::size_t i = 0; i < ring_tets.size(); ++i) {
-    const std::int32_t label = m.labels[ring_tets[i]];
-    m.remove_tet(ring_tets[i]);
-    m.add_tet({v, b, ring[i], ring[i + 1]}, label, q[2 * i]);
-    m.add_tet({a, v, ring[i], ring[i + 1]}, label, q[2 * i + 1]);
+    const std::int32_t t = ring_tets[i];
+    split.old_tets.push_back(m.tets[t]);
+    split.old_labels.push_back(m.labels[t]);
+    split.old_quality.push_back(m.quality[t]);
+    m.remove_tet(t);
+    split.new_slots.push_back(m.add_tet({v, b, ring[i], ring[i + 1]}, split.old_labels[i], q[2 * i]));
+    split.new_slots.push_back(
+        m.add_tet({a, v, ring[i], ring[i + 1]}, split.old_labels[i], q[2 * i + 1]));
   }
-  return true;
+  return split;
+}
+
+// Undoes the split just made: the old tets back, the new vertex (the last one) gone.
+void undo(WorkMesh& m, const Split& split) {
+  for (std::int32_t t : split.new_slots) m.remove_tet(t);
+  for (std::size_t i = 0; i < split.old_tets.size(); ++i)
+    m.add_tet(split.old_tets[i], split.old_labels[i], split.old_quality[i]);
+  m.pos.pop_back();
+  m.vertex_tets.pop_back();
+  m.on_boundary.pop_back();
+  if (!m.on_surface.empty()) m.on_surface.pop_back();
+  m.vertex_stamp.pop_back();
+  m.move_failed.pop_back();
 }
 
 }  // namespace
 
 BoundaryRefinement BoundaryRefiner::run(WorkMesh& m, const BoundaryRefinementOptions& o) {
   BoundaryRefinement out;
-  if (!(o.tolerance_mm > 0)) return out;
+  if (!(o.tolerance_mm > 0) || o.max_inserted == 0) return out;
   std::vector<Triangle> faces = boundary_faces(m);
   if (faces.empty()) return out;
   const bool first = !scanned_;
@@ -139,6 +165,7 @@ BoundaryRefinement BoundaryRefiner::run(WorkMesh& m, const BoundaryRefinementOpt
   }
   std::vector<std::int32_t> with_face, ring, ring_tets;
   std::vector<FarPoint> retry;
+  std::vector<double> star_quality;
   // Points whose nearest face an earlier split replaced wait for the next sweep.
   for (int sweep = 0; sweep < kSweeps && !far_.empty() && out.inserted < o.max_inserted; ++sweep) {
     if (sweep > 0 || !first) {  // the points left, against the boundary as it is now
@@ -181,8 +208,8 @@ BoundaryRefinement BoundaryRefiner::run(WorkMesh& m, const BoundaryRefinementOpt
       tried[n] = 1;
       const Vec3 &a = m.pos[f[0]], &b = m.pos[f[1]], &c = m.pos[f[2]];
       const Vec3 foot = closest_on_triangle(far_[n].at, a, b, c);
-      // The edge of the face nearest the point's foot on it, split there (kept off its ends),
-      // and the new vertex where the surface is nearest the point.
+      // The edge of the face nearest the point's foot on it is split there (kept off its
+      // ends), and the new vertex moved to where the surface is nearest the point.
       int e = 0;
       double best = std::numeric_limits<double>::infinity();
       for (int k = 0; k < 3; ++k) {
@@ -194,16 +221,32 @@ BoundaryRefinement BoundaryRefiner::run(WorkMesh& m, const BoundaryRefinementOpt
       const std::int32_t u = f[e], w = f[(e + 1) % 3];
       const double t = std::clamp(
           dot(foot - m.pos[u], m.pos[w] - m.pos[u]) / squared_distance(m.pos[u], m.pos[w]), 0.25, 0.75);
-      const Vec3 on_edge = m.pos[u] + (m.pos[w] - m.pos[u]) * t;
       Vec3 x = far_[n].at;
       if (!surface_->project(x, 2 * surface_->max_spacing_mm())) continue;
       if (m.edge_ring(u, w, ring, ring_tets) != WorkMesh::Ring::open) continue;
-      // The new tets: not bad, nor worse than the worst tet they replace.
+      // The halved tets: not flat, and better than bad or than the worst they replace.
       double floor = o.bad_below;
       for (std::int32_t r : ring_tets) floor = std::min(floor, m.quality[r]);
-      if (split_edge(m, u, w, x, floor, ring, ring_tets) ||
-          split_edge(m, u, w, (x + on_edge) * 0.5, floor, ring, ring_tets))
-        ++inserted;
+      floor = std::max(floor, kMinValidQuality);
+      const Split split =
+          split_edge(m, u, w, m.pos[u] + (m.pos[w] - m.pos[u]) * t, floor, ring, ring_tets);
+      if (split.vertex < 0) continue;
+      // Then the new vertex towards the surface point, as any boundary move: all, half or a
+      // quarter of the way, its star kept embedded and no tet made bad (else undone).
+      const std::int32_t v = split.vertex;
+      star_quality.resize(m.vertex_tets[v].size());
+      const Move move = move_boundary_vertex(m, v, x, o.bad_below, star_quality.data());
+      if (!move.moved) {
+        undo(m, split);
+        continue;
+      }
+      m.pos[v] = move.position;
+      for (std::size_t k = 0; k < star_quality.size(); ++k)
+        m.quality[m.vertex_tets[v][k]] = star_quality[k];
+      m.touch_star(v);
+      // On the surface it slides from now on; part of the way, the passes' snap brings it on.
+      if (!m.on_surface.empty()) m.on_surface[v] = move.position == x;
+      ++inserted;
     }
     out.inserted += inserted;
     // A point tried is not tried again in this run; in the next, the tets around it may be

@@ -296,7 +296,7 @@ PassCounts snap_to_surface(WorkMesh& mesh, const LevelSetSurface& surface, doubl
 struct BoundaryRefinementOptions {
   double tolerance_mm = 0;  // segmentation boundary farther than this from the mesh boundary
   double spacing_mm = 0;    // gets a vertex, one per this spacing
-  double bad_below = 1;     // no new tet below this, nor below the worst tet it replaces
+  double bad_below = 1;     // new tets are better than this or than the worst they replace
   std::size_t max_inserted = 0;  // vertices inserted at most
 };
 struct BoundaryRefinement {

@@ -23,8 +23,8 @@ struct OptimizationOptions {
   double global_flip_below = 1.5;         // … those of quality below this
   bool odt_flips = false;                 // Delaunay flips after each ODT sweep
   double surface_tolerance_voxels = 0.05;  // boundary vertices farther off stay fixed
-  // After the first pass: where the segmentation's boundary lies farther than the tolerance
-  // from the mesh boundary, a boundary vertex is inserted …
+  // In the second and third passes: where the segmentation's boundary lies farther than the
+  // tolerance from the mesh boundary, a boundary vertex is inserted …
   bool refine_boundary = true;
   double boundary_tolerance_mm = 0;  // … (mm; 0: half the object's sizing unit, object_scale.h)
   bool fit_surface = true;  // last: boundary fitted to the surface (least squares, not chords)

@@ -115,7 +115,7 @@ std::vector<ParameterSpec> make_registry() {
       {.key = "target_vertices", .cli = "vertices", .label = "vertices", .stage = S::surface,
        .tooltip = "Approximate vertex count of the mesh: r and the interior points are scaled "
                   "together to reach it, keeping their balance (0: off, r and the interior "
-                  "spacing as set).",
+                  "spacing as set); stage 6's boundary refinement adds up to a tenth more.",
        .lo = 0, .hi = 1e9, .zero_means = "off", .ref = top<&P::target_vertices>},
       // σ only scales the energies of eq. (3); Algorithm 1's order depends on h² − r²·lfs²
       // alone, so it changes no result.
@@ -262,9 +262,9 @@ std::vector<ParameterSpec> make_registry() {
       // anatomy's own scale, so a finer scan of the same organ gets about as many vertices.
       {.key = "refine_boundary", .section = kOpt, .cli = "opt-refine-boundary",
        .label = "refine boundary", .stage = S::optimize,
-       .tooltip = "After the first pass, insert boundary vertices where the segmentation's "
-                  "boundary lies farther than the tolerance below from the mesh boundary, "
-                  "farthest first, at most a tenth more vertices.",
+       .tooltip = "In stage 6's second and third passes, insert boundary vertices where the "
+                  "segmentation's boundary lies farther than the tolerance below from the mesh "
+                  "boundary, farthest first, at most a tenth more vertices.",
        .ref = opt<&O::refine_boundary>, .active = optimizing},
       {.key = "boundary_tolerance_mm", .section = kOpt, .cli = "opt-boundary-tolerance",
        .label = "boundary tolerance", .unit = "mm", .stage = S::optimize,
