@@ -152,8 +152,9 @@ QualityReport expect_improved(const TetMesh& before, const TetMesh& after,
   EXPECT_EQ(vertices_inside_foreign_tets(after), vertices_inside_foreign_tets(before));
   // Input vertices keep their order (removed corners leave gaps), inserted ones come after, and
   // vertex_origin says which is which.
+  const std::size_t added = r.inserted_vertices + r.inserted_boundary_vertices + r.split_caps;
   EXPECT_EQ(after.vertices.size(),
-            before.vertices.size() + r.inserted_vertices - r.corner_removals - r.collapsed_edges);
+            before.vertices.size() + added - r.corner_removals - r.collapsed_edges);
   EXPECT_EQ(r.vertex_origin.size(), after.vertices.size());
   std::int32_t last = -1;
   std::size_t inserted = 0;
@@ -166,7 +167,7 @@ QualityReport expect_improved(const TetMesh& before, const TetMesh& after,
     EXPECT_GT(o, last);
     last = o;
   }
-  EXPECT_LE(inserted, r.inserted_vertices);  // an inserted vertex may be collapsed later
+  EXPECT_LE(inserted, added);  // an inserted vertex may be collapsed later
   // The worst tet gets better, so no tet ends worse than the worst before.
   EXPECT_GT(worst_min_sine(after), worst_min_sine(before));
   EXPECT_GT(qa.dihedral.min_deg, qb.dihedral.min_deg);
@@ -554,6 +555,7 @@ TEST(MeshOptimization, SteppingPassByPassGivesTheSameMesh) {
   EXPECT_EQ(j["inserted_boundary_vertices"], r.inserted_boundary_vertices);
   EXPECT_GT(j["boundary_tolerance_mm"].get<double>(), 0.0);
   EXPECT_EQ(j["passes"][2]["inserted_boundary"], r.history[2].inserted_boundary);
+  EXPECT_EQ(j["split_caps"], r.split_caps);
   // The last entry of the history describes the final mesh.
   const QualityReport qf = compute_quality(stepped);
   EXPECT_NEAR(stepper.history().back().min_dihedral_deg, qf.dihedral.min_deg, 1e-9);

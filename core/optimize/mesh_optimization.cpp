@@ -215,13 +215,15 @@ bool MeshOptimizer::step(const Progress& progress) {
       opt::InsertionOptions in;
       in.bad_below = bad_below;
       inserted = opt::insert_vertices(m, in);
+      if (surface_) inserted.split_caps = opt::split_bad_caps(m, *surface_, bad_below).split_caps;
     });
   }
   const std::size_t changes = flips.edge_removals + flips.face_flips + flips.boundary_flips +
                               flips.corner_removals + flips.collapsed_edges + odt.edge_removals +
                               odt.face_flips + odt.moved_interior + smooth.moved_interior +
                               smooth.moved_surface + snapped.moved_surface +
-                              snapped.snapped_surface + inserted.inserted + refined.inserted;
+                              snapped.snapped_surface + inserted.inserted + inserted.split_caps +
+                              refined.inserted;
   if (changes == 0 || pass >= options_.max_passes) finished_ = true;
   if (finished_ && surface_ && options_.fit_surface) {
     result_.surface_distance_after_mm = max_surface_distance(m, *surface_, m.on_surface);
@@ -261,6 +263,7 @@ bool MeshOptimizer::step(const Progress& progress) {
   stats.moved_surface = smooth.moved_surface + snapped.moved_surface;
   stats.snapped_surface = snapped.snapped_surface;
   stats.inserted = inserted.inserted;
+  stats.split_caps = inserted.split_caps;
   stats.far_boundary_points = refined.far_points;
   stats.inserted_boundary = refined.inserted;
   result_.wall_s += stats.wall_s;
@@ -270,6 +273,7 @@ bool MeshOptimizer::step(const Progress& progress) {
   result_.collapsed_edges += flips.collapsed_edges;
   result_.inserted_vertices += inserted.inserted;
   result_.inserted_boundary_vertices += refined.inserted;
+  result_.split_caps += inserted.split_caps;
   result_.snapped_vertices += snapped.snapped_surface;
   result_.max_boundary_shift_mm =
       std::max(result_.max_boundary_shift_mm, flips.max_boundary_shift_mm);
@@ -407,6 +411,7 @@ nlohmann::json to_json(const OptimizationResult& r) {
                         {"moved_surface", s.moved_surface},
                         {"snapped_surface", s.snapped_surface},
                         {"inserted", s.inserted},
+                        {"split_caps", s.split_caps},
                         {"far_boundary_points", s.far_boundary_points},
                         {"inserted_boundary", s.inserted_boundary},
                         {"vertices", s.vertices}};
@@ -440,6 +445,7 @@ nlohmann::json to_json(const OptimizationResult& r) {
           {"inserted_vertices", r.inserted_vertices},
           {"inserted_boundary_vertices", r.inserted_boundary_vertices},
           {"boundary_tolerance_mm", r.boundary_tolerance_mm},
+          {"split_caps", r.split_caps},
           {"fit_vertices", r.fit_vertices},
           {"fit_mean_offset_mm", r.fit_mean_offset_mm},
           {"fit_max_offset_mm", r.fit_max_offset_mm},

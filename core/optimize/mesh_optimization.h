@@ -80,6 +80,7 @@ struct PassStats {
   // Boundary refinement (passes 2 and 3): points of the segmentation's boundary beyond the
   // tolerance before it, and boundary vertices inserted.
   std::size_t far_boundary_points = 0, inserted_boundary = 0;
+  std::size_t split_caps = 0;  // bad boundary caps split at their ridge (a boundary vertex each)
   std::size_t vertices = 0;                           // after the pass
 };
 
@@ -110,6 +111,7 @@ struct OptimizationResult {
   std::size_t inserted_boundary_vertices = 0;  // boundary vertices inserted where the
                                                // segmentation departs from the boundary …
   double boundary_tolerance_mm = 0;            // … farther than this (0: no refinement)
+  std::size_t split_caps = 0;  // bad boundary caps split at their ridge
   // The boundary's fit to the surface after the last pass: vertices moved, their mean and
   // largest offset, the boundary triangles' area-weighted mean distance to the level set
   // before and after, and its time (included in wall_s and in the last pass's smoothing_s).
@@ -192,13 +194,13 @@ OptimizationResult optimize_mesh(TetMesh& mesh, const Volume<float>* indicator,
 //  "snapped_vertices","max_boundary_shift_mm","max_flip_face_distance_mm",
 //  "max_flip_replaced_distance_mm","boundary_flips",
 //  "corner_removals","collapsed_edges","inserted_vertices","inserted_boundary_vertices",
-//  "boundary_tolerance_mm",
+//  "boundary_tolerance_mm","split_caps",
 //  "fit_vertices","fit_mean_offset_mm",
 //  "fit_max_offset_mm","fit_error_before_mm","fit_error_after_mm","fit_s",
 //  "passes":[{"pass","wall_s","cpu_s","flips_s","odt_s","smoothing_s","insertion_s","tets",
 //  "vertices","min_quality","edge_removals","face_flips","boundary_flips","corner_removals",
 //  "collapsed_edges","odt_moved","moved_interior","moved_surface","snapped_surface","inserted",
-//  "far_boundary_points","inserted_boundary",
+//  "split_caps","far_boundary_points","inserted_boundary",
 //  with statistics: "min_dihedral_deg","max_dihedral_deg","below_deg":{"5","10","15","20"},
 //  "bins_percent":{measure key: [3]}}]}
 nlohmann::json to_json(const OptimizationResult& result);

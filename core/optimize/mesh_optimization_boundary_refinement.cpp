@@ -96,6 +96,33 @@ Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3
   return a + ab * (vb * denom) + ac * (vc * denom);
 }
 
+// Moves x onto the surface, within a hundredth of a voxel (where the vertices that slide on it
+// are kept), or returns false.
+bool on_surface(const LevelSetSurface& surface, Vec3& x) {
+  return surface.project(x, 2 * surface.max_spacing_mm()) &&
+         surface.distance(x) <= 0.01 * surface.min_spacing_mm();
+}
+
+// Moves new boundary vertex v towards x on the surface, checked as any boundary move (its star
+// kept embedded, no tet made bad: move_boundary_vertex), and keeps the move when its worst tet
+// ends above `better_than`; with `whole`, only the whole way. False: nothing changed. A vertex
+// moved part of the way is off the surface: the passes' snap brings it on, to within its
+// tolerance.
+bool move_onto(WorkMesh& m, std::int32_t v, const Vec3& x, double bad_below, bool whole,
+               std::vector<double>& star_quality,
+               double better_than = -std::numeric_limits<double>::infinity()) {
+  star_quality.resize(m.vertex_tets[v].size());
+  const Move move = move_boundary_vertex(m, v, x, bad_below, star_quality.data());
+  if (!move.moved || (whole && !(move.position == x)) ||
+      !(*std::min_element(star_quality.begin(), star_quality.end()) > better_than))
+    return false;
+  m.pos[v] = move.position;
+  for (std::size_t k = 0; k < star_quality.size(); ++k) m.quality[m.vertex_tets[v][k]] = star_quality[k];
+  m.touch_star(v);
+  if (!m.on_surface.empty()) m.on_surface[v] = move.position == x;
+  return true;
+}
+
 // A boundary edge split at a point of it: the old tets of its ring (each halved, so the new ones
 // are positive and the boundary keeps its shape) and the slots of the new ones.
 struct Split {
@@ -222,7 +249,7 @@ BoundaryRefinement BoundaryRefiner::run(WorkMesh& m, const BoundaryRefinementOpt
       const double t = std::clamp(
           dot(foot - m.pos[u], m.pos[w] - m.pos[u]) / squared_distance(m.pos[u], m.pos[w]), 0.25, 0.75);
       Vec3 x = far_[n].at;
-      if (!surface_->project(x, 2 * surface_->max_spacing_mm())) continue;
+      if (!on_surface(*surface_, x)) continue;
       if (m.edge_ring(u, w, ring, ring_tets) != WorkMesh::Ring::open) continue;
       // The halved tets: not flat, and better than bad or than the worst they replace.
       double floor = o.bad_below;
@@ -231,21 +258,12 @@ BoundaryRefinement BoundaryRefiner::run(WorkMesh& m, const BoundaryRefinementOpt
       const Split split =
           split_edge(m, u, w, m.pos[u] + (m.pos[w] - m.pos[u]) * t, floor, ring, ring_tets);
       if (split.vertex < 0) continue;
-      // Then the new vertex towards the surface point, as any boundary move: all, half or a
-      // quarter of the way, its star kept embedded and no tet made bad (else undone).
-      const std::int32_t v = split.vertex;
-      star_quality.resize(m.vertex_tets[v].size());
-      const Move move = move_boundary_vertex(m, v, x, o.bad_below, star_quality.data());
-      if (!move.moved) {
+      // Then the new vertex towards the surface point (part of the way will do: the fidelity
+      // gained is most of it); else the split is undone.
+      if (!move_onto(m, split.vertex, x, o.bad_below, false, star_quality)) {
         undo(m, split);
         continue;
       }
-      m.pos[v] = move.position;
-      for (std::size_t k = 0; k < star_quality.size(); ++k)
-        m.quality[m.vertex_tets[v][k]] = star_quality[k];
-      m.touch_star(v);
-      // On the surface it slides from now on; part of the way, the passes' snap brings it on.
-      if (!m.on_surface.empty()) m.on_surface[v] = move.position == x;
       ++inserted;
     }
     out.inserted += inserted;
@@ -259,6 +277,55 @@ BoundaryRefinement BoundaryRefiner::run(WorkMesh& m, const BoundaryRefinementOpt
   }
   far_.insert(far_.end(), retry.begin(), retry.end());
   return out;
+}
+
+PassCounts split_bad_caps(WorkMesh& m, const LevelSetSurface& surface, double bad_below) {
+  PassCounts counts;
+  // Bad tets with two boundary faces, worst first (stable: slot order among equals).
+  std::vector<std::pair<double, std::int32_t>> caps;
+  std::vector<std::int32_t> with_face;
+  for (std::size_t t = 0; t < m.tets.size(); ++t) {
+    const Tet& tet = m.tets[t];
+    if (is_dead(tet) || !(m.quality[t] < bad_below)) continue;
+    if (!m.on_boundary[tet[0]] || !m.on_boundary[tet[1]] || !m.on_boundary[tet[2]] ||
+        !m.on_boundary[tet[3]])
+      continue;
+    caps.push_back({m.quality[t], std::int32_t(t)});
+  }
+  std::stable_sort(caps.begin(), caps.end(),
+                   [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<std::int32_t> ring, ring_tets;
+  std::vector<double> star_quality;
+  for (const auto& [q, t] : caps) {
+    if (is_dead(m.tets[t]) || m.quality[t] != q) continue;  // changed by a split before
+    const Tet tet = m.tets[t];
+    // The faces on the boundary (face i is opposite vertex i); two of them meet at the ridge.
+    int boundary[4], n = 0;
+    for (int i = 0; i < 4; ++i) {
+      const Triangle f = outward_faces(tet)[i];
+      m.tets_with(f.data(), 3, with_face);
+      if (with_face.size() == 1) boundary[n++] = i;
+    }
+    if (n != 2) continue;
+    std::int32_t edge[2], k = 0;
+    for (int i = 0; i < 4; ++i)
+      if (i != boundary[0] && i != boundary[1]) edge[k++] = tet[i];
+    if (m.edge_ring(edge[0], edge[1], ring, ring_tets) != WorkMesh::Ring::open) continue;
+    double old_min = std::numeric_limits<double>::infinity();
+    for (std::int32_t r : ring_tets) old_min = std::min(old_min, m.quality[r]);
+    const Vec3 mid = (m.pos[edge[0]] + m.pos[edge[1]]) * 0.5;
+    Vec3 x = mid;
+    if (!on_surface(surface, x)) continue;
+    const Split split = split_edge(m, edge[0], edge[1], mid, kMinValidQuality, ring, ring_tets);
+    if (split.vertex < 0) continue;
+    // A cap is fixed only with its ridge on the surface; the split alone leaves it flat.
+    if (!move_onto(m, split.vertex, x, bad_below, true, star_quality, old_min)) {
+      undo(m, split);
+      continue;
+    }
+    ++counts.split_caps;
+  }
+  return counts;
 }
 
 }  // namespace cvt::opt

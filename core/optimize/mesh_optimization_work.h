@@ -221,6 +221,7 @@ struct PassCounts {
   std::size_t snapped_surface = 0;   // boundary vertices moved onto the surface (now sliding)
   std::size_t collapsed_edges = 0;   // short edges of needles collapsed (a vertex removed)
   std::size_t inserted = 0;          // interior vertices inserted
+  std::size_t split_caps = 0;        // bad boundary caps split at their ridge
   double max_boundary_shift_mm = 0;  // largest boundary move of a boundary flip or corner (mm)
   double max_face_distance_mm = 0;   // … and largest distance of a new boundary face's centroid
                                      // to the surface (mm)
@@ -328,6 +329,13 @@ class BoundaryRefiner {
   std::vector<FarPoint> far_;
   bool scanned_ = false;
 };
+
+// A bad tet lying on the boundary with two boundary faces (a cap: flat across the ridge where
+// they meet) that flips could not remove, because the new boundary would leave the surface, is
+// split at its ridge's midpoint and the new vertex moved onto `surface`, as every boundary move
+// (see move_boundary_vertex); kept only when that raises the worst tet around the ridge.
+// Sequential, worst first: deterministic.
+PassCounts split_bad_caps(WorkMesh& mesh, const LevelSetSurface& surface, double bad_below);
 
 struct SurfaceFitOptions {
   int iterations = 2;      // Gauss–Newton steps
