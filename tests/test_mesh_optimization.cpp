@@ -817,3 +817,68 @@ TEST(MeshOptimization, BoundaryRefinementFollowsTheSegmentation) {
   EXPECT_LE(qr.dihedral.max_deg, 160.0);
   for (int k = 0; k < 3; ++k) EXPECT_EQ(qr.shewchuk[k].bins_percent[0], 0.0) << k;
 }
+
+// A sliver lying on a sphere, its top edge (a, b) a ridge between its two boundary faces and
+// its bottom edge (c, d) held by two tets down to the centre: flips cannot remove it without
+// cutting into the sphere. Split at the ridge and the new vertex lifted onto the sphere, it
+// becomes two good tets. On a plane the same split lifts nothing, and is not kept.
+TEST(MeshOptimization, BadCapsAreSplitAtTheirRidge) {
+  const double radius = 10.0;
+  auto make = [&](bool sphere) {
+    Volume<float> f;
+    f.grid.dims = {97, 97, 97};
+    f.grid.spacing = {0.25, 0.25, 0.25};
+    f.grid.origin = {-12, -12, -12};
+    f.data.resize(f.grid.voxel_count());
+    for (int k = 0; k < 97; ++k)
+      for (int j = 0; j < 97; ++j)
+        for (int i = 0; i < 97; ++i) {
+          const Vec3 p = f.grid.index_to_world({double(i), double(j), double(k)});
+          const double d = sphere ? norm(p) - radius : p.z - radius;  // outside positive
+          f.data[f.grid.linear(i, j, k)] = float(std::clamp(0.5 - d / 4.0, 0.0, 1.0));
+        }
+    return f;
+  };
+  auto on = [&](bool sphere, double x, double y) {
+    return Vec3{x, y, sphere ? std::sqrt(radius * radius - x * x - y * y) : radius};
+  };
+  for (const bool sphere : {true, false}) {
+    const Volume<float> field = make(sphere);
+    TetMesh mesh;
+    mesh.vertices = {on(sphere, -2.0, 0), on(sphere, 2.0, 0), on(sphere, 0, -2.6),
+                     on(sphere, 0, 2.6), {0, 0, 0}};  // a, b, c, d, centre
+    if (!sphere) mesh.vertices[0].z = mesh.vertices[1].z = radius + 0.05;  // a ridge just above
+    mesh.tets = {{0, 1, 2, 3}, {0, 2, 3, 4}, {1, 2, 3, 4}};
+    for (Tet& t : mesh.tets)
+      if (dot(mesh.vertices[t[1]] - mesh.vertices[t[0]],
+              cross(mesh.vertices[t[2]] - mesh.vertices[t[0]],
+                    mesh.vertices[t[3]] - mesh.vertices[t[0]])) < 0)
+        std::swap(t[2], t[3]);
+    opt::WorkMesh m(mesh, opt::QualityScale{});
+    m.on_surface.assign(m.vertex_count(), 1);
+    const opt::LevelSetSurface surface(field, 0.5f);
+    const double cap_quality = m.quality[0];
+    ASSERT_LT(cap_quality, 0.5) << sphere;  // a bad cap to begin with
+    const opt::PassCounts c = opt::split_bad_caps(m, surface, 1.0);
+    const TetMesh after = m.to_mesh();
+    EXPECT_TRUE(check_validity(after).valid) << sphere;
+    if (!sphere) {  // nothing to gain: left as it was
+      EXPECT_EQ(c.split_caps, 0u);
+      EXPECT_EQ(after.vertices.size(), 5u);
+      EXPECT_EQ(after.tets.size(), 3u);
+      continue;
+    }
+    ASSERT_EQ(c.split_caps, 1u);
+    ASSERT_EQ(after.vertices.size(), 6u);
+    EXPECT_EQ(after.tets.size(), 4u);  // the cap halved (no other tet has its ridge)
+    const Vec3& ridge = after.vertices[5];
+    EXPECT_NEAR(norm(ridge), radius, 0.01 * 0.25);  // on the sphere
+    EXPECT_EQ(m.on_surface[5], 1);
+    double worst = 1e9;
+    for (const Tet& t : after.tets)
+      worst = std::min(worst, opt::tet_quality(after.vertices[t[0]], after.vertices[t[1]],
+                                               after.vertices[t[2]], after.vertices[t[3]],
+                                               opt::QualityScale{}));
+    EXPECT_GT(worst, cap_quality);
+  }
+}
