@@ -82,7 +82,7 @@ MeshOptimizer::MeshOptimizer(const TetMesh& mesh, const Volume<float>* indicator
     boundary_tolerance_mm_ =
         options_.boundary_tolerance_mm > 0
             ? options_.boundary_tolerance_mm
-            : 0.5 * sizing_unit_mm(*object, volume_to_area_mm(*object));
+            : auto_boundary_tolerance_mm(sizing_unit_mm(*object, volume_to_area_mm(*object)));
     if (indicator && options_.refine_boundary)
       result_.boundary_tolerance_mm = boundary_tolerance_mm_;
   }

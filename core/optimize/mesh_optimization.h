@@ -136,8 +136,10 @@ class MeshOptimizer {
   // history (not counted in the timings; a pass recomputes the figures only of the tets it
   // touched); without, only before the first pass and after the last (the others get the
   // counts and min_quality).
-  // `object` (may be null: the fit then targets the indicator's level set) is the segmentation
-  // whose boundary the last step fits the boundary triangles to; it must outlive the optimiser.
+  // `object` (may be null: the fit then targets the indicator's level set, and the boundary is
+  // not refined) is the segmentation whose boundary the last step fits the boundary triangles
+  // to and boundary refinement follows; it must outlive the optimiser. A boundary tolerance of 0
+  // is resolved from its sizing unit (a scan of the mask; the pipeline passes stage 1's).
   MeshOptimizer(const TetMesh& mesh, const Volume<float>* indicator,
                 const OptimizationOptions& options = {}, bool pass_statistics = false,
                 const Mask* object = nullptr);

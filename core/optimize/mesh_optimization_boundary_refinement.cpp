@@ -24,7 +24,6 @@ namespace cvt::opt {
 namespace {
 
 constexpr int kSweeps = 3;
-constexpr double kMinValidQuality = 1e-6;  // no new tet flatter than this
 
 using FarPoint = BoundaryRefiner::FarPoint;
 
@@ -73,32 +72,9 @@ std::vector<FarPoint> far_points(const Mask& object, const TriangleSurface& boun
   return out;
 }
 
-// The closest point of triangle (a, b, c) to p.
-Vec3 closest_on_triangle(const Vec3& p, const Vec3& a, const Vec3& b, const Vec3& c) {
-  // Ericson, Real-Time Collision Detection, 5.1.5.
-  const Vec3 ab = b - a, ac = c - a, ap = p - a;
-  const double d1 = dot(ab, ap), d2 = dot(ac, ap);
-  if (d1 <= 0 && d2 <= 0) return a;
-  const Vec3 bp = p - b;
-  const double d3 = dot(ab, bp), d4 = dot(ac, bp);
-  if (d3 >= 0 && d4 <= d3) return b;
-  const double vc = d1 * d4 - d3 * d2;
-  if (vc <= 0 && d1 >= 0 && d3 <= 0) return a + ab * (d1 / (d1 - d3));
-  const Vec3 cp = p - c;
-  const double d5 = dot(ab, cp), d6 = dot(ac, cp);
-  if (d6 >= 0 && d5 <= d6) return c;
-  const double vb = d5 * d2 - d1 * d6;
-  if (vb <= 0 && d2 >= 0 && d6 <= 0) return a + ac * (d2 / (d2 - d6));
-  const double va = d3 * d6 - d5 * d4;
-  if (va <= 0 && (d4 - d3) >= 0 && (d5 - d6) >= 0)
-    return b + (c - b) * ((d4 - d3) / ((d4 - d3) + (d5 - d6)));
-  const double denom = 1 / (va + vb + vc);
-  return a + ab * (vb * denom) + ac * (vc * denom);
-}
-
 // Moves x onto the surface, within a hundredth of a voxel (where the vertices that slide on it
 // are kept), or returns false.
-bool on_surface(const LevelSetSurface& surface, Vec3& x) {
+bool project_precisely(const LevelSetSurface& surface, Vec3& x) {
   return surface.project(x, 2 * surface.max_spacing_mm()) &&
          surface.distance(x) <= 0.01 * surface.min_spacing_mm();
 }
@@ -214,10 +190,7 @@ BoundaryRefinement BoundaryRefiner::run(WorkMesh& m, const BoundaryRefinementOpt
                        [](const FarPoint& a, const FarPoint& b) { return a.distance > b.distance; });
       far_ = std::move(left);
     }
-    if (sweep == 0) {
-      out.far_points = far_.size();
-      if (!far_.empty()) out.max_distance_mm = far_.front().distance;
-    }
+    if (sweep == 0) out.far_points = far_.size();
     // Farthest first, one per spacing.
     std::vector<Vec3> at;
     at.reserve(far_.size());
@@ -233,23 +206,24 @@ BoundaryRefinement BoundaryRefiner::run(WorkMesh& m, const BoundaryRefinementOpt
       m.tets_with(f.data(), 3, with_face);
       if (with_face.size() != 1) continue;  // split already: next sweep
       tried[n] = 1;
-      const Vec3 &a = m.pos[f[0]], &b = m.pos[f[1]], &c = m.pos[f[2]];
-      const Vec3 foot = closest_on_triangle(far_[n].at, a, b, c);
-      // The edge of the face nearest the point's foot on it is split there (kept off its
-      // ends), and the new vertex moved to where the surface is nearest the point.
+      // The edge of the face nearest the point is split at the point's foot on it (kept off
+      // its ends), and the new vertex moved to where the surface is nearest the point. (Over
+      // the face, the edges rank alike by their distance to the point and to its foot on the
+      // face, and the feet on an edge coincide.)
+      const Vec3& p = far_[n].at;
       int e = 0;
       double best = std::numeric_limits<double>::infinity();
       for (int k = 0; k < 3; ++k) {
         const Vec3 &p0 = m.pos[f[k]], &p1 = m.pos[f[(k + 1) % 3]];
-        const double t = std::clamp(dot(foot - p0, p1 - p0) / squared_distance(p0, p1), 0.0, 1.0);
-        const double d = squared_distance(foot, p0 + (p1 - p0) * t);
+        const double t = std::clamp(dot(p - p0, p1 - p0) / squared_distance(p0, p1), 0.0, 1.0);
+        const double d = squared_distance(p, p0 + (p1 - p0) * t);
         if (d < best) best = d, e = k;
       }
       const std::int32_t u = f[e], w = f[(e + 1) % 3];
       const double t = std::clamp(
-          dot(foot - m.pos[u], m.pos[w] - m.pos[u]) / squared_distance(m.pos[u], m.pos[w]), 0.25, 0.75);
-      Vec3 x = far_[n].at;
-      if (!on_surface(*surface_, x)) continue;
+          dot(p - m.pos[u], m.pos[w] - m.pos[u]) / squared_distance(m.pos[u], m.pos[w]), 0.25, 0.75);
+      Vec3 x = p;
+      if (!project_precisely(*surface_, x)) continue;
       if (m.edge_ring(u, w, ring, ring_tets) != WorkMesh::Ring::open) continue;
       // The halved tets: not flat, and better than bad or than the worst they replace.
       double floor = o.bad_below;
@@ -315,7 +289,7 @@ PassCounts split_bad_caps(WorkMesh& m, const LevelSetSurface& surface, double ba
     for (std::int32_t r : ring_tets) old_min = std::min(old_min, m.quality[r]);
     const Vec3 mid = (m.pos[edge[0]] + m.pos[edge[1]]) * 0.5;
     Vec3 x = mid;
-    if (!on_surface(surface, x)) continue;
+    if (!project_precisely(surface, x)) continue;
     const Split split = split_edge(m, edge[0], edge[1], mid, kMinValidQuality, ring, ring_tets);
     if (split.vertex < 0) continue;
     // A cap is fixed only with its ridge on the surface; the split alone leaves it flat.

@@ -22,8 +22,6 @@
 namespace cvt::opt {
 namespace {
 
-constexpr double kMinValidQuality = 1e-6;  // new tets must be at least this good (not flat)
-
 struct Plan {
   enum Kind { none, edge_removal, face_flip, boundary_flip, corner_removal } kind = none;
   double new_min = -1;                 // smallest quality of the new tets

@@ -18,8 +18,6 @@
 namespace cvt::opt {
 namespace {
 
-constexpr double kMinValidQuality = 1e-6;
-
 // Circumcentre and squared radius of tet (a, b, c, d); false when flat.
 bool circumsphere(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d, Vec3& centre,
                   double& r2) {

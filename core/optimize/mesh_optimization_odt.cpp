@@ -15,8 +15,6 @@
 namespace cvt::opt {
 namespace {
 
-constexpr double kMinValidQuality = 1e-6;
-
 // ODT position of interior vertex v: the volume-weighted mean of its tets' circumcentres
 // (Chen & Xu; Alliez et al. 2005), then the longest step towards it (1, ½, ¼) after which no
 // tet of the star is bad unless it was before, and the star's worst tet is no worse.

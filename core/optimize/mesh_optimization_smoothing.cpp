@@ -17,7 +17,6 @@
 namespace cvt::opt {
 namespace {
 
-constexpr double kMinValidQuality = 1e-6;
 constexpr double kPi = 3.14159265358979323846;
 constexpr int kMaxActive = 6;
 constexpr double kActiveBand = 1e-3;  // tets within this of the star's minimum are active

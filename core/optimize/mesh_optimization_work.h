@@ -38,6 +38,9 @@ double tet_quality(const Vec3& a, const Vec3& b, const Vec3& c, const Vec3& d,
                    const QualityScale& scale,
                    double floor = -std::numeric_limits<double>::infinity());
 
+// No operation makes a tet flatter than this quality (nearly zero volume).
+inline constexpr double kMinValidQuality = 1e-6;
+
 // A tet is dead when t[0] < 0.
 inline bool is_dead(const Tet& t) {
   return t[0] < 0;
@@ -302,7 +305,6 @@ struct BoundaryRefinementOptions {
 };
 struct BoundaryRefinement {
   std::size_t far_points = 0;  // segmentation boundary points beyond the tolerance
-  double max_distance_mm = 0;  // the farthest one's distance
   std::size_t inserted = 0;    // boundary vertices inserted
 };
 

@@ -26,11 +26,15 @@ struct OptimizationOptions {
   // In the second and third passes: where the segmentation's boundary lies farther than the
   // tolerance from the mesh boundary, a boundary vertex is inserted …
   bool refine_boundary = true;
-  double boundary_tolerance_mm = 0;  // … (mm; 0: half the object's sizing unit, object_scale.h)
+  double boundary_tolerance_mm = 0;  // … (mm; 0: auto_boundary_tolerance_mm)
   bool fit_surface = true;  // last: boundary fitted to the surface (least squares, not chords)
 
   bool operator==(const OptimizationOptions&) const = default;
 };
+
+// The boundary tolerance's default from the object's sizing unit (object_scale.h): in mm, so a
+// finer scan of the same anatomy gets the same tolerance.
+inline double auto_boundary_tolerance_mm(double sizing_unit_mm) { return 0.5 * sizing_unit_mm; }
 
 // Throws InputError "optimization.KEY: ..." for a value out of its range. Defined by the
 // parameter registry, which holds the ranges.

@@ -313,10 +313,13 @@ void Pipeline::run_through(Stage last, const Progress& progress) {
 
 int Pipeline::optimize_passes(int k, const Progress& progress) {
   progress(std::string(stage_name(Stage::optimize)), 0.0);
-  if (!optimizer_)
-    optimizer_ = std::make_unique<MeshOptimizer>(mesh_->mesh, &preprocess_->indicator,
-                                                 parameters_.optimization, pass_statistics_,
-                                                 &preprocess_->object);
+  if (!optimizer_) {
+    OptimizationOptions options = parameters_.optimization;  // auto sizes from stage 1's scale
+    if (options.boundary_tolerance_mm == 0)
+      options.boundary_tolerance_mm = auto_boundary_tolerance_mm(preprocess_->sizing_unit_mm);
+    optimizer_ = std::make_unique<MeshOptimizer>(mesh_->mesh, &preprocess_->indicator, options,
+                                                 pass_statistics_, &preprocess_->object);
+  }
   int done = 0;
   // The mesh follows the optimiser also after a cancel (every phase of a pass keeps it valid).
   auto adopt = [&] {
